@@ -1,0 +1,113 @@
+// pipetile — contour: central point, ray casting, crossings, chain-code walk, edge classification
+// (paper §3). Geometry is in pixel units of one slice plane; see slicer.h for the (u, v) axes.
+#pragma once
+
+#include <glm/common.hpp>
+#include <glm/vec2.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace pipetile {
+
+class SlicePlane;
+
+/// A signed field on a small pixel image (negative inside), for hand-made contours in tests and
+/// fuzzing. Pixels outside the image read as +1 (outside).
+struct FieldImage {
+    glm::ivec2 origin{0};       // (u, v) of the first pixel
+    int width = 0, height = 0;
+    std::vector<double> values; // row-major, width * height
+
+    double value(int u, int v) const;
+    bool inside(int u, int v) const { return value(u, v) < 0.0; }
+    double sample(const glm::dvec2& uv) const; // bilinear
+};
+
+/// The crack boundary of one connected set of inside pixels, walked with the inside on the left
+/// (the paper's chain code, modified to follow pixel borders). Corner (i, j) of the lattice is the
+/// point (i - 0.5, j - 0.5), the lower-left corner of pixel (i, j). Inside pixels are 8-connected.
+struct BoundaryLoop {
+    std::vector<glm::ivec2> corners; // one per unit crack, in walk order; the polygon closes
+    double area = 0.0;               // signed, pixels^2: > 0 counterclockwise (outer boundary),
+                                     // < 0 clockwise (the boundary of a hole)
+    glm::dvec2 centroid{0.0};        // area centroid of the polygon
+    bool hole() const { return area < 0.0; }
+};
+
+/// Which rays a contour is cast with: level L uses baseRays * 2^L rays at angles 2*pi*x / count,
+/// so every ray of level L is also a ray of level L+1 (DESIGN.md, Rays).
+struct RaySet {
+    int baseRays = 8; // n0, at least 3 (with 2 rays, F and B could not be told apart)
+    int level = 0;
+    int count() const { return baseRays << level; }
+};
+
+/// Crossing of a ray with the boundary (paper §3).
+enum class CrossingKind : std::uint8_t {
+    InOut, // the ray passes out of the object; the counterclockwise walk moves forward in angle
+    OutIn, // the ray comes into the object; the walk moves backward in angle
+};
+
+/// Types of contour edges (paper §3). An edge joins two crossings that follow each other on the
+/// boundary walk; its type depends only on ray indices and crossing kinds, never on coordinates.
+enum class EdgeType : std::uint8_t {
+    Forward,  // F: from ray x to ray x+1 (InOut -> InOut)
+    Backward, // B: from ray x+1 to ray x (OutIn -> OutIn)
+    DownIn,   // D_I: same ray, toward the centre, InOut -> OutIn
+    DownOut,  // D_O: same ray, toward the centre, OutIn -> InOut
+    UpIn,     // U_I: same ray, away from the centre, InOut -> OutIn
+    UpOut,    // U_O: same ray, away from the centre, OutIn -> InOut
+};
+
+struct Crossing {
+    int ray = 0;              // ray index in [0, RaySet::count())
+    CrossingKind kind = CrossingKind::InOut;
+    double crackT = 0.0;      // distance from the centre to the crack the walk met: fixes order
+    double t = 0.0;           // distance from the centre to the interpolated surface: fixes position
+    glm::dvec2 point{0.0};    // in-plane position, pixel units
+};
+
+/// A contour: the crossings of one boundary loop in walk order, starting at the outermost InOut
+/// crossing of ray 0, and the typed edges between them (edges[i] joins crossings[i] and
+/// crossings[i+1], cyclically). A hole's loop is walked reversed, so that every contour winds
+/// counterclockwise around its centre; `hole` tells the tiler to turn its triangles outward.
+struct Contour {
+    glm::dvec2 center{0.0};
+    bool hole = false;
+    RaySet rays;
+    std::vector<Crossing> crossings;
+    std::vector<EdgeType> edges;
+    int interpolationFallbacks = 0; // crossings placed on the crack: no sign change found nearby
+};
+
+/// Walks every boundary loop of the plane, seeded from its east-facing cracks.
+std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane);
+std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
+
+/// A point inside the region a loop encloses: its centroid when that lies inside, else the
+/// enclosed pixel farthest from the boundary (chamfer distance; C-shaped sections).
+glm::dvec2 centralPoint(const BoundaryLoop& loop);
+
+/// Even-odd test: does the loop's polygon enclose the point?
+bool encloses(const BoundaryLoop& loop, const glm::dvec2& point);
+
+/// Casts `rays` from `center` against the loop and classifies the edges. The crack polygon fixes
+/// which crossings exist and their order; each position is then interpolated from the field
+/// along the ray, between the neighbouring crossings of the same ray.
+/// Returns an empty contour if the loop does not wind once around the centre.
+Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
+Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);
+
+/// Edge type from two consecutive crossings (DESIGN.md, Edge types): integers only.
+EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount);
+
+/// Number of edges of a type; for a contour winding once, #F - #B equals the ray count.
+int countEdges(const Contour& contour, EdgeType type);
+
+/// True when every sector holds exactly one F edge (#F == ray count): paper §4.1.
+bool isUnambiguous(const Contour& contour);
+
+const char* toString(EdgeType type); // "F", "B", "D_I", "D_O", "U_I", "U_O"
+
+} // namespace pipetile

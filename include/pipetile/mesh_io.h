@@ -1,0 +1,39 @@
+// pipetile — mesh_io: the triangle mesh type, and reading and writing mesh files.
+// The only module that includes OpenMesh; the extension of a path picks the format.
+#pragma once
+
+#include <pipetile/tiler.h>
+
+#include <glm/common.hpp>
+#include <glm/vec3.hpp>
+
+#include <string>
+#include <vector>
+
+namespace pipetile {
+
+/// A triangle mesh in world space, triangles counterclockwise seen from outside.
+struct TriangleMesh {
+    std::vector<glm::dvec3> vertices;
+    std::vector<Triangle> triangles; // ids into `vertices`
+};
+
+struct MeshWriteOptions {
+    bool binary = true;               // PLY and STL in binary (smaller, exact floats); OBJ and OFF
+                                      // are text formats, written with 9 significant digits
+    std::vector<glm::dvec3> colors;   // optional per-vertex RGB in [0, 1] (PLY, OFF, OBJ)
+};
+
+/// True for the extensions pipetile writes: .ply .obj .stl .off (any case).
+bool isMeshExtension(const std::string& path);
+
+/// Writes a mesh through a temporary file and a rename: a failure never leaves half a file.
+/// @throw Error for an unknown extension, or a folder that is missing or not writable.
+void writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWriteOptions& options = {});
+
+/// Reads any triangle or polygon mesh OpenMesh reads (.ply .obj .stl .off); polygons are split
+/// into triangle fans. Vertices shared by several faces stay shared.
+/// @throw Error if the file is missing or not a mesh OpenMesh can read.
+TriangleMesh readMesh(const std::string& path);
+
+} // namespace pipetile

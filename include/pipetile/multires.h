@@ -1,0 +1,94 @@
+// pipetile — multires: levels of detail, from a volume to closed triangle meshes.
+//
+// A Reconstruction does the level-independent work once (slices, boundary loops, central points,
+// contour correspondence, end-cap apexes); each level then casts its own rays and tiles. Level L
+// casts baseRays * 2^L rays, and every ray of level L is a ray of level L+1, so level L's vertices
+// are a subset of level L+1's, bit for bit.
+#pragma once
+
+#include <pipetile/contour.h>
+#include <pipetile/mesh_io.h>
+#include <pipetile/slicer.h>
+#include <pipetile/tiler.h>
+#include <pipetile/volume.h>
+
+#include <glm/vec3.hpp>
+
+#include <vector>
+
+namespace pipetile {
+
+struct MeshOptions {
+    SliceOptions slicing;          // axis and spacing of the slices
+    int baseRays = 8;              // n0: rays at level 0, in [3, 4096]
+    int levels = 4;                // levels of detail: 0 .. levels-1, in [1, 16]
+    double minContourArea = 4.0;   // pixels^2: smaller cross-sections are dropped (and counted)
+    int threads = 0;               // 0: all cores; results do not depend on it
+};
+
+/// One level of detail and what it took.
+struct LevelMesh {
+    int level = 0;
+    int rays = 0;                  // rays per contour at this level
+    TriangleMesh mesh;
+    double seconds = 0.0;          // ray casting and tiling of this level
+    int contours = 0;              // contours tiled
+    int ambiguousContours = 0;     // contours with more than one F edge in some sector
+    long long crossings = 0;       // vertices on contours (the rest are end-cap apexes)
+    int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
+};
+
+/// What the level-independent pass found; degenerate geometry is counted here, not thrown.
+struct ReconstructionStats {
+    int slices = 0;                // slice planes sampled
+    int emptySlices = 0;           // planes that crossed nothing
+    int contours = 0;              // contours kept, over all slices
+    int holes = 0;                 // of which bound a hole (inner walls of hollow pipes)
+    int droppedSmall = 0;          // cross-sections below minContourArea
+    int droppedUnwound = 0;        // loops that do not wind around their central point
+    int tubes = 0;                 // chains of corresponding contours, each closed by two caps
+    int flatCaps = 0;              // caps whose apex was not found past the last slice
+    double seconds = 0.0;          // slicing, boundary walks and correspondence
+};
+
+/// Stateful: holds the slices' boundary loops and the tubes; builds any level on request.
+class Reconstruction {
+public:
+    /// @throw UsageError for parameters out of range; Error if no slice crosses the object.
+    Reconstruction(const Volume& volume, const MeshOptions& options);
+
+    int levelCount() const { return mOptions.levels; }
+    const SlicePlan& plan() const { return mPlan; }
+    const ReconstructionStats& stats() const { return mStats; }
+    const MeshOptions& options() const { return mOptions; }
+
+    /// Casts the rays of `level` on every contour and tiles all tubes. Thread-safe (const).
+    LevelMesh buildLevel(int level) const;
+
+private:
+    struct SliceLoop {
+        BoundaryLoop loop;
+        glm::dvec2 center{0.0};
+    };
+    struct TubeEnd {
+        glm::dvec3 apexIndex{0.0}; // index-space apex of the cap
+    };
+    struct Tube {
+        std::vector<std::pair<int, int>> members; // (slice, loop) from first to last slice
+        TubeEnd bottom, top;
+        bool hole = false;
+    };
+
+    Volume mVolume;
+    MeshOptions mOptions;
+    SlicePlan mPlan;
+    std::vector<std::vector<SliceLoop>> mLoops; // per slice
+    std::vector<Tube> mTubes;
+    ReconstructionStats mStats;
+};
+
+/// Checks options against what the machine and the grid can support.
+/// @throw UsageError naming the parameter and its allowed range.
+void checkMeshOptions(const MeshOptions& options);
+
+} // namespace pipetile

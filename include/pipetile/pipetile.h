@@ -1,0 +1,11 @@
+// pipetile — the whole public API in one include.
+#pragma once
+
+#include <pipetile/contour.h>
+#include <pipetile/error.h>
+#include <pipetile/mesh_io.h>
+#include <pipetile/multires.h>
+#include <pipetile/slicer.h>
+#include <pipetile/tiler.h>
+#include <pipetile/validate.h>
+#include <pipetile/volume.h>

@@ -1,0 +1,75 @@
+// pipetile — slicer: slicing axis, slice positions, and sampling the grid on one slice plane.
+//
+// A slice is an index-space plane w = const, where (u, v, w) is a cyclic permutation of the grid's
+// (x, y, z) with w the slicing axis: axis z gives (x, y, z), axis x gives (y, z, x), axis y gives
+// (z, x, y). Cyclic permutations keep (u, v, w) right-handed, so a counterclockwise walk in (u, v)
+// seen from +w stays counterclockwise in the grid. Pixel (u, v) is the voxel column at integer u, v.
+// The grid is read through OpenVDB accessors; no dense copy of the volume is made.
+#pragma once
+
+#include <pipetile/volume.h>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include <memory>
+#include <vector>
+
+namespace pipetile {
+
+enum class Axis { X = 0, Y = 1, Z = 2, Auto = 3 };
+
+struct SliceOptions {
+    Axis axis = Axis::Auto;     // Auto: the longest world-space side of the active bounding box
+    double spacingVoxels = 2.0; // distance between slices, in voxels along the slicing axis
+};
+
+/// Where the slices go. Plain data: cheap to copy, no OpenVDB types.
+struct SlicePlan {
+    int axis = 2;                    // 0, 1, 2 for x, y, z (never Auto)
+    std::vector<double> positions;   // index coordinate w of each slice, increasing
+    glm::ivec2 pixelMin{0}, pixelMax{0}; // in-plane pixel box (inclusive): the active bounding box
+                                     // padded by one pixel; everything outside reads as outside
+    int leafOriginMin = 0;           // w origin of the first leaf-node slab
+    std::vector<std::vector<glm::ivec2>> leafFootprints; // per 8-voxel slab along w: (u, v) origins
+                                                         // of the leaf nodes in it
+};
+
+/// Index-space point of in-plane coordinates (u, v) on the plane w of `axis`.
+glm::dvec3 planeToIndex(int axis, const glm::dvec2& uv, double w);
+
+/// Chooses the axis and slice positions: from the low to the high end of the active bounding box
+/// along the axis, every `spacingVoxels`.
+/// @throw UsageError if the spacing is not a finite number in [0.1, 1000].
+SlicePlan planSlices(const Volume& volume, const SliceOptions& options);
+
+/// The signed field (negative inside) on one slice plane. Stateful: it owns an OpenVDB accessor,
+/// so use one object per thread. Values between voxel planes are interpolated linearly along w.
+class SlicePlane {
+public:
+    SlicePlane(const Volume& volume, const SlicePlan& plan, double w);
+    ~SlicePlane();
+    SlicePlane(SlicePlane&&) noexcept;
+    SlicePlane& operator=(SlicePlane&&) noexcept;
+
+    /// Field at pixel (u, v). Pixels outside the plan's pixel box read as the background.
+    double value(int u, int v) const;
+    /// Inside test of the chain-code walk: false outside the plan's pixel box, so every walk closes.
+    bool inside(int u, int v) const;
+    /// Bilinear field at a continuous in-plane point, in pixel units.
+    double sample(const glm::dvec2& uv) const;
+    /// Trilinear field at (u, v) on another plane w; end caps look past the last slice with it.
+    double sampleAt(const glm::dvec2& uv, double w) const;
+    /// Pixels p inside whose neighbour p + (1, 0) is outside: every boundary loop has at least one
+    /// such east-facing crack. Only the leaf nodes crossing the plane are scanned. Sorted (v, u).
+    std::vector<glm::ivec2> eastCracks() const;
+
+    double w() const;
+    const SlicePlan& plan() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> mImpl;
+};
+
+} // namespace pipetile

@@ -1,0 +1,89 @@
+// pipetile — volume: reading a .vdb, picking the grid, level set vs fog, isovalue, transform.
+//
+// This header is free of OpenVDB so that most of the library compiles quickly; the OpenVDB side of
+// the module (building a Volume from a grid a caller already has) is in volume_grid.h.
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pipetile {
+
+/// How the values of a grid relate to the object it describes.
+enum class VolumeClass {
+    LevelSet, // signed distance: inside where value < iso (default iso 0)
+    Fog,      // density: inside where value > iso
+};
+
+struct VolumeOptions {
+    std::string gridName;      // empty: the first scalar float grid of the file
+    std::optional<double> iso; // unset: 0 for level sets; for fog volumes, halfway between the
+                               // background and the largest active value (documented in README)
+};
+
+/// Name, type and class of one grid in a file, as `pipetile info` lists them.
+struct GridSummary {
+    std::string name;
+    std::string valueType;   // "float", "vec3s", ...
+    std::string gridClass;   // "level set", "fog volume", "unknown"
+    long long activeVoxels = 0;
+    glm::ivec3 bboxMin{0}, bboxMax{0}; // active voxel bounding box, index space, inclusive
+    glm::dvec3 voxelSize{1.0};
+};
+
+/// A scalar float grid chosen from a file, with its class and isovalue. Cheap to copy (shared).
+/// The signed field `f = (value - iso)` for level sets and `f = (iso - value)` for fog volumes is
+/// negative inside the object for both classes; everything downstream works with that field.
+class Volume {
+public:
+    struct Impl;
+
+    Volume() = default;
+    explicit Volume(std::shared_ptr<const Impl> impl) : mImpl(std::move(impl)) {}
+
+    const std::string& source() const;   // file path, or "sample:<name>"
+    const std::string& gridName() const;
+    VolumeClass volumeClass() const;
+    double iso() const;
+    glm::dvec3 voxelSize() const;        // world units per voxel along x, y, z of index space
+    double smallestVoxel() const;        // smallest voxel edge, the unit of "voxels" in reports
+    glm::ivec3 bboxMin() const;          // active voxel bounding box, index space, inclusive
+    glm::ivec3 bboxMax() const;
+    double minValue() const;             // over active values and the background
+    double maxValue() const;
+    /// World position of a point given in index space (the grid's own transform).
+    glm::dvec3 indexToWorld(const glm::dvec3& index) const;
+    glm::dvec3 worldToIndex(const glm::dvec3& world) const;
+    /// True when the index-to-world map mirrors space (negative determinant): triangle winding
+    /// computed in index space must then be reversed to keep normals outward in world space.
+    bool mirrored() const;
+    /// The signed field (negative inside) at a world point, trilinearly interpolated.
+    double signedField(const glm::dvec3& world) const;
+
+    const Impl& impl() const { return *mImpl; }
+    bool valid() const { return static_cast<bool>(mImpl); }
+
+private:
+    std::shared_ptr<const Impl> mImpl;
+};
+
+/// Lists the grids of a .vdb file without reading their voxels.
+/// @throw Error if the file is missing, unreadable or not a VDB file.
+std::vector<GridSummary> listGrids(const std::string& path);
+
+/// Reads one scalar grid of a .vdb file (half-float and Blosc storage included) and checks that it
+/// can be meshed: finite values, a background outside the object, an isovalue that crosses it.
+/// @throw Error naming the file, the grid and what to do, for each of those problems.
+Volume readVolume(const std::string& path, const VolumeOptions& options = {});
+
+/// Writes the volume's grid to a .vdb file through a temporary file and a rename, so a failure
+/// never leaves half a file. @throw Error if the file cannot be written.
+void writeVolume(const Volume& volume, const std::string& path);
+
+const char* toString(VolumeClass volumeClass);
+
+} // namespace pipetile

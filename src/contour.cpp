@@ -1,0 +1,392 @@
+// pipetile — contour: central point, ray casting, crossings, chain-code walk, edge classification.
+//
+// Min & Lee §3: rays from a central point, IN-OUT / OUT-IN crossings, a chain-code walk of the
+// boundary to order them, and edge types from integers alone.
+
+#include <pipetile/contour.h>
+#include <pipetile/error.h>
+#include <pipetile/slicer.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace pipetile {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586476925286766559;
+
+// Walk directions, counterclockwise: E, N, W, S. Turning left is +1, right is +3 (mod 4).
+const glm::ivec2 kStep[4] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
+// The pixel on the left of the unit crack that leaves corner C in direction d is C + kLeft[d];
+// the pixel on its right is C + kLeft[(d + 3) % 4].
+const glm::ivec2 kLeft[4] = {{0, 0}, {-1, 0}, {-1, -1}, {0, -1}};
+
+void check(bool condition, const char* what)
+{
+    if (!condition) throw std::logic_error(std::string("pipetile internal invariant broken: ") + what);
+}
+
+glm::dvec2 cornerPoint(const glm::ivec2& c) { return {c.x - 0.5, c.y - 0.5}; }
+
+void finishLoop(BoundaryLoop& loop)
+{
+    double area2 = 0.0, cx = 0.0, cy = 0.0;
+    const std::size_t m = loop.corners.size();
+    for (std::size_t i = 0; i < m; ++i) {
+        const glm::dvec2 p = cornerPoint(loop.corners[i]), q = cornerPoint(loop.corners[(i + 1) % m]);
+        const double cross = p.x * q.y - q.x * p.y;
+        area2 += cross;
+        cx += (p.x + q.x) * cross;
+        cy += (p.y + q.y) * cross;
+    }
+    loop.area = 0.5 * area2;
+    loop.centroid = area2 != 0.0 ? glm::dvec2(cx / (3.0 * area2), cy / (3.0 * area2)) : cornerPoint(loop.corners[0]);
+}
+
+// The chain-code walk over every loop of an image, seeded from its east-facing cracks. `inside`
+// must read false outside [boxMin, boxMax] so that every walk closes.
+template <class InsideFn>
+std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const std::vector<glm::ivec2>& eastCracks,
+                                     glm::ivec2 boxMin, glm::ivec2 boxMax)
+{
+    const int width = boxMax.x - boxMin.x + 2, height = boxMax.y - boxMin.y + 2;
+    std::vector<std::uint8_t> visited(static_cast<std::size_t>(width) * height, 0);
+    auto mark = [&](glm::ivec2 p) -> std::uint8_t& {
+        return visited[static_cast<std::size_t>(p.y - boxMin.y) * width + (p.x - boxMin.x)];
+    };
+    const std::size_t maxCorners = 4 * static_cast<std::size_t>(width) * height + 4;
+
+    std::vector<BoundaryLoop> loops;
+    for (const glm::ivec2& seed : eastCracks) {
+        if (mark(seed)) continue;
+        BoundaryLoop loop;
+        const glm::ivec2 start(seed.x + 1, seed.y); // the crack east of `seed`, walked north
+        glm::ivec2 c = start;
+        int d = 1;
+        do {
+            loop.corners.push_back(c);
+            if (d == 1) mark(c + kLeft[1]) = 1; // its left pixel is the seed it would start from
+            c += kStep[d];
+            const bool aheadRight = inside(c.x + kLeft[(d + 3) % 4].x, c.y + kLeft[(d + 3) % 4].y);
+            const bool aheadLeft = inside(c.x + kLeft[d].x, c.y + kLeft[d].y);
+            if (aheadRight) d = (d + 3) % 4;  // inside continues to the right (8-connected)
+            else if (!aheadLeft) d = (d + 1) % 4; // inside ends ahead: turn left around it
+            check(loop.corners.size() <= maxCorners, "boundary walk did not close");
+        } while (!(c == start && d == 1));
+        finishLoop(loop);
+        loops.push_back(std::move(loop));
+    }
+    return loops;
+}
+
+} // namespace
+
+bool encloses(const BoundaryLoop& loop, const glm::dvec2& p)
+{
+    bool in = false;
+    const std::size_t m = loop.corners.size();
+    for (std::size_t i = 0, j = m - 1; i < m; j = i++) {
+        const glm::dvec2 a = cornerPoint(loop.corners[i]), b = cornerPoint(loop.corners[j]);
+        if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x) in = !in;
+    }
+    return in;
+}
+
+namespace {
+
+// The enclosed pixel farthest from the boundary, by a 3-4 chamfer distance over the loop's box.
+glm::dvec2 deepestPixel(const BoundaryLoop& loop)
+{
+    glm::ivec2 lo = loop.corners[0], hi = loop.corners[0];
+    for (const glm::ivec2& c : loop.corners) { lo = glm::min(lo, c); hi = glm::max(hi, c); }
+    // Pixels (u, v) with lo <= (u, v) < hi can be enclosed; pad by one outside pixel each side.
+    const glm::ivec2 origin = lo - 1;
+    const int w = hi.x - lo.x + 2, h = hi.y - lo.y + 2;
+    std::vector<int> dist(static_cast<std::size_t>(w) * h, 0);
+    // Row v crosses the vertical cracks at x = i - 0.5 of corners (i, v) -> (i, v + 1) or back;
+    // pixels between pairs of them (sorted) are enclosed.
+    std::vector<std::vector<int>> rowCracks(h);
+    const std::size_t m = loop.corners.size();
+    for (std::size_t k = 0; k < m; ++k) {
+        const glm::ivec2 a = loop.corners[k], b = loop.corners[(k + 1) % m];
+        if (a.x == b.x) rowCracks[std::min(a.y, b.y) - origin.y].push_back(a.x);
+    }
+    const int far = std::numeric_limits<int>::max() / 2;
+    for (int y = 0; y < h; ++y) {
+        std::sort(rowCracks[y].begin(), rowCracks[y].end());
+        for (std::size_t k = 0; k + 1 < rowCracks[y].size(); k += 2)
+            for (int u = rowCracks[y][k]; u < rowCracks[y][k + 1]; ++u) dist[y * w + (u - origin.x)] = far;
+    }
+    auto relax = [&](int x, int y, int dx, int dy, int cost) {
+        const int nx = x + dx, ny = y + dy;
+        const int other = (nx < 0 || ny < 0 || nx >= w || ny >= h) ? 0 : dist[ny * w + nx];
+        dist[y * w + x] = std::min(dist[y * w + x], other + cost);
+    };
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            if (dist[y * w + x]) { relax(x, y, -1, 0, 3); relax(x, y, 0, -1, 3); relax(x, y, -1, -1, 4); relax(x, y, 1, -1, 4); }
+    int best = -1;
+    glm::dvec2 point = loop.centroid;
+    for (int y = h - 1; y >= 0; --y)
+        for (int x = w - 1; x >= 0; --x) {
+            if (!dist[y * w + x]) continue;
+            relax(x, y, 1, 0, 3); relax(x, y, 0, 1, 3); relax(x, y, 1, 1, 4); relax(x, y, -1, 1, 4);
+        }
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            if (dist[y * w + x] > best) { best = dist[y * w + x]; point = glm::dvec2(x + origin.x, y + origin.y); }
+    return point;
+}
+
+// Position along a ray: the root of the field g(t) (negative inside) nearest the crack, searched
+// between the neighbouring crossings of the same ray so crossings keep their order.
+template <class SampleFn>
+bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower, double upper, double& t)
+{
+    constexpr int kSteps = 8;
+    double bestA = 0.0, bestB = 0.0, ga = 0.0, gb = 0.0, bestDistance = std::numeric_limits<double>::infinity();
+    double prevT = lower, prevG = g(lower);
+    for (int k = 1; k <= kSteps; ++k) {
+        const double nextT = lower + (upper - lower) * k / kSteps;
+        const double nextG = g(nextT);
+        const bool crosses = rising ? (prevG < 0.0 && nextG >= 0.0) : (prevG >= 0.0 && nextG < 0.0);
+        const double distance = std::abs(0.5 * (prevT + nextT) - crackT);
+        if (crosses && distance < bestDistance) {
+            bestDistance = distance;
+            bestA = prevT; bestB = nextT; ga = prevG; gb = nextG;
+        }
+        prevT = nextT;
+        prevG = nextG;
+    }
+    if (!std::isfinite(bestDistance)) return false;
+    // Illinois false position: the field is smooth along the ray, so this converges in a few steps.
+    if (gb == 0.0) { t = bestB; return true; }
+    int side = 0;
+    t = 0.5 * (bestA + bestB);
+    for (int iteration = 0; iteration < 60 && bestB - bestA > 1e-10; ++iteration) {
+        const double c = (ga * bestB - gb * bestA) / (ga - gb);
+        if (!(c > bestA && c < bestB)) break;
+        t = c;
+        const double gc = g(c);
+        if (gc == 0.0) break;
+        if ((gc < 0.0) == (ga < 0.0)) {
+            bestA = c; ga = gc;
+            if (side == -1) gb *= 0.5;
+            side = -1;
+        } else {
+            bestB = c; gb = gc;
+            if (side == 1) ga *= 0.5;
+            side = 1;
+        }
+    }
+    return true;
+}
+
+template <class SampleFn>
+Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SampleFn& field)
+{
+    Contour contour;
+    contour.center = center;
+    contour.hole = loop.hole();
+    contour.rays = rays;
+    const int n = rays.count();
+    const std::size_t m = loop.corners.size();
+    if (m < 4 || n < 3) return contour;
+
+    // A hole's loop runs clockwise; walk it reversed so the contour winds counterclockwise around
+    // its centre, with the hollow as its "inside".
+    std::vector<glm::dvec2> poly(m);
+    for (std::size_t i = 0; i < m; ++i) poly[i] = cornerPoint(loop.corners[contour.hole ? m - 1 - i : i]);
+    const double inwardSign = contour.hole ? -1.0 : 1.0;
+
+    // Ray coordinate of each corner: angle / 2pi * n. It is computed as (fraction * n0) * 2^level,
+    // the last factor exact, so a corner compares with ray x of level L exactly as with ray 2x of
+    // level L+1: levels nest.
+    std::vector<double> rho(m);
+    for (std::size_t i = 0; i < m; ++i) {
+        double fraction = std::atan2(poly[i].y - center.y, poly[i].x - center.x) / kTwoPi;
+        if (fraction < 0.0) fraction += 1.0;
+        if (fraction >= 1.0) fraction -= 1.0;
+        rho[i] = std::ldexp(fraction * rays.baseRays, rays.level);
+    }
+
+    struct Hit { int ray; CrossingKind kind; double crackT; };
+    std::vector<Hit> hits;
+    auto direction = [&](int ray) {
+        const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
+        return glm::dvec2(std::cos(angle), std::sin(angle));
+    };
+    auto crackDistance = [&](int ray, const glm::dvec2& a, const glm::dvec2& b) {
+        const glm::dvec2 d = direction(ray), e = b - a, ac = a - center;
+        return (ac.x * e.y - ac.y * e.x) / (d.x * e.y - d.y * e.x);
+    };
+    // Ray x is crossed where the walk passes from rho < x to rho >= x (forward, InOut) or back
+    // (backward, OutIn); a corner exactly on a ray counts on the >= side, so no crossing is lost
+    // or counted twice.
+    for (std::size_t i = 0; i < m; ++i) {
+        const std::size_t j = (i + 1) % m;
+        double delta = rho[j] - rho[i];
+        if (delta > 0.5 * n) delta -= n;
+        if (delta < -0.5 * n) delta += n;
+        if (delta == 0.0) continue;
+        const long fa = static_cast<long>(std::floor(rho[i])), fb = static_cast<long>(std::floor(rho[j]));
+        if (delta > 0.0) {
+            const long last = fb + (rho[j] < rho[i] ? n : 0);
+            for (long x = fa + 1; x <= last; ++x) {
+                const int ray = static_cast<int>(x % n);
+                hits.push_back({ray, CrossingKind::InOut, crackDistance(ray, poly[i], poly[j])});
+            }
+        } else {
+            const long last = fb + 1 - (rho[j] > rho[i] ? n : 0);
+            for (long x = fa; x >= last; --x) {
+                const int ray = static_cast<int>(((x % n) + n) % n);
+                hits.push_back({ray, CrossingKind::OutIn, crackDistance(ray, poly[i], poly[j])});
+            }
+        }
+    }
+    // The loop must wind once around the centre: one more InOut than OutIn on every ray.
+    std::vector<int> balance(n, 0);
+    for (const Hit& h : hits) balance[h.ray] += h.kind == CrossingKind::InOut ? 1 : -1;
+    for (int b : balance)
+        if (b != 1) return contour;
+
+    // Start at the outermost InOut crossing of ray 0, so the contour does not depend on where
+    // the walk began.
+    std::size_t start = hits.size();
+    for (std::size_t k = 0; k < hits.size(); ++k)
+        if (hits[k].ray == 0 && hits[k].kind == CrossingKind::InOut &&
+            (start == hits.size() || hits[k].crackT > hits[start].crackT))
+            start = k;
+    std::rotate(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(start), hits.end());
+
+    contour.crossings.resize(hits.size());
+    std::vector<std::vector<int>> perRay(n);
+    for (std::size_t k = 0; k < hits.size(); ++k) {
+        Crossing& c = contour.crossings[k];
+        c.ray = hits[k].ray;
+        c.kind = hits[k].kind;
+        c.crackT = hits[k].crackT;
+        perRay[c.ray].push_back(static_cast<int>(k));
+    }
+    for (int ray = 0; ray < n; ++ray) {
+        std::vector<int>& ids = perRay[ray];
+        std::sort(ids.begin(), ids.end(),
+                  [&](int a, int b) { return contour.crossings[a].crackT < contour.crossings[b].crackT; });
+        const glm::dvec2 d = direction(ray);
+        auto g = [&](double t) { return inwardSign * field(center + t * d); };
+        for (std::size_t k = 0; k < ids.size(); ++k) {
+            Crossing& c = contour.crossings[ids[k]];
+            double lower = std::max(c.crackT - 1.0, 0.0);
+            double upper = c.crackT + 1.0;
+            if (k > 0) lower = std::max(lower, 0.5 * (contour.crossings[ids[k - 1]].crackT + c.crackT));
+            if (k + 1 < ids.size()) upper = std::min(upper, 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT));
+            if (!refineCrossing(g, c.kind == CrossingKind::InOut, c.crackT, lower, upper, c.t)) {
+                c.t = c.crackT;
+                ++contour.interpolationFallbacks;
+            }
+            c.point = center + c.t * d;
+        }
+    }
+
+    const std::size_t count = contour.crossings.size();
+    contour.edges.resize(count);
+    for (std::size_t k = 0; k < count; ++k)
+        contour.edges[k] = classifyEdge(contour.crossings[k], contour.crossings[(k + 1) % count], n);
+    return contour;
+}
+
+} // namespace
+
+double FieldImage::value(int u, int v) const
+{
+    const int x = u - origin.x, y = v - origin.y;
+    if (x < 0 || y < 0 || x >= width || y >= height) return 1.0;
+    return values[static_cast<std::size_t>(y) * width + x];
+}
+
+double FieldImage::sample(const glm::dvec2& uv) const
+{
+    const double fu = std::floor(uv.x), fv = std::floor(uv.y);
+    const int u = static_cast<int>(fu), v = static_cast<int>(fv);
+    const double s = uv.x - fu, t = uv.y - fv;
+    const double a = value(u, v), b = value(u + 1, v), c = value(u, v + 1), d = value(u + 1, v + 1);
+    return (1.0 - t) * (a + s * (b - a)) + t * (c + s * (d - c));
+}
+
+std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
+{
+    const SlicePlan& plan = plane.plan();
+    return traceLoops([&](int u, int v) { return plane.inside(u, v); }, plane.eastCracks(), plan.pixelMin,
+                      plan.pixelMax + 1);
+}
+
+std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
+{
+    std::vector<glm::ivec2> seeds;
+    for (int v = image.origin.y; v < image.origin.y + image.height; ++v)
+        for (int u = image.origin.x; u < image.origin.x + image.width; ++u)
+            if (image.inside(u, v) && !image.inside(u + 1, v)) seeds.push_back({u, v});
+    return traceLoops([&](int u, int v) { return image.inside(u, v); }, seeds, image.origin - 1,
+                      image.origin + glm::ivec2(image.width, image.height));
+}
+
+glm::dvec2 centralPoint(const BoundaryLoop& loop)
+{
+    if (loop.corners.empty()) return loop.centroid;
+    return encloses(loop, loop.centroid) ? loop.centroid : deepestPixel(loop);
+}
+
+Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane)
+{
+    return castRaysImpl(loop, center, rays, [&](const glm::dvec2& p) { return plane.sample(p); });
+}
+
+Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
+{
+    return castRaysImpl(loop, center, rays, [&](const glm::dvec2& p) { return image.sample(p); });
+}
+
+EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)
+{
+    const bool fromInOut = from.kind == CrossingKind::InOut, toInOut = to.kind == CrossingKind::InOut;
+    if (fromInOut && toInOut) {
+        check(to.ray == (from.ray + 1) % rayCount, "F edge must join ray x to ray x+1");
+        return EdgeType::Forward;
+    }
+    if (!fromInOut && !toInOut) {
+        check(from.ray == (to.ray + 1) % rayCount, "B edge must join ray x+1 to ray x");
+        return EdgeType::Backward;
+    }
+    check(from.ray == to.ray, "U and D edges join two crossings of one ray");
+    const bool up = to.crackT > from.crackT;
+    if (fromInOut) return up ? EdgeType::UpIn : EdgeType::DownIn;
+    return up ? EdgeType::UpOut : EdgeType::DownOut;
+}
+
+int countEdges(const Contour& contour, EdgeType type)
+{
+    return static_cast<int>(std::count(contour.edges.begin(), contour.edges.end(), type));
+}
+
+bool isUnambiguous(const Contour& contour)
+{
+    return !contour.edges.empty() && countEdges(contour, EdgeType::Forward) == contour.rays.count();
+}
+
+const char* toString(EdgeType type)
+{
+    switch (type) {
+    case EdgeType::Forward: return "F";
+    case EdgeType::Backward: return "B";
+    case EdgeType::DownIn: return "D_I";
+    case EdgeType::DownOut: return "D_O";
+    case EdgeType::UpIn: return "U_I";
+    case EdgeType::UpOut: return "U_O";
+    }
+    return "?";
+}
+
+} // namespace pipetile

@@ -1,0 +1,240 @@
+// pipetile — multires: levels of detail, from a volume to closed triangle meshes.
+
+#include <pipetile/error.h>
+#include <pipetile/multires.h>
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pipetile {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start)
+{
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Runs `body(i)` for i in [0, count) on `threads` threads (0: all cores). Each index writes only
+// its own results, so the output never depends on the thread count.
+template <class Body>
+void forEachIndex(int threads, std::size_t count, const Body& body)
+{
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+        tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) { body(i); });
+    });
+}
+
+// Where the tube really ends, beyond its last slice: march from the central point along the
+// slicing axis until the field turns outside, then bisect. Cone-shaped caps then follow rounded
+// ends instead of cutting them flat at the last slice.
+bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex)
+{
+    constexpr double kStep = 0.25;
+    const double w0 = plane.w();
+    double inT = 0.0;
+    if (plane.sampleAt(center, w0) >= 0.0) return false;
+    for (double t = kStep; t <= reach + 1e-9; t += kStep) {
+        if (plane.sampleAt(center, w0 + direction * t) >= 0.0) {
+            double lo = inT, hi = t;
+            for (int i = 0; i < 40; ++i) {
+                const double mid = 0.5 * (lo + hi);
+                (plane.sampleAt(center, w0 + direction * mid) < 0.0 ? lo : hi) = mid;
+            }
+            wApex = w0 + direction * 0.5 * (lo + hi);
+            return true;
+        }
+        inT = t;
+    }
+    return false;
+}
+
+} // namespace
+
+void checkMeshOptions(const MeshOptions& options)
+{
+    if (options.baseRays < 3 || options.baseRays > 4096)
+        throw UsageError("--rays must be between 3 and 4096 (got " + std::to_string(options.baseRays) +
+                         "); with fewer than 3 rays forward and backward edges cannot be told apart");
+    if (options.levels < 1 || options.levels > 16)
+        throw UsageError("--levels must be between 1 and 16 (got " + std::to_string(options.levels) + ")");
+    const long long finest = static_cast<long long>(options.baseRays) << (options.levels - 1);
+    if (finest > 65536)
+        throw UsageError("--rays " + std::to_string(options.baseRays) + " with --levels " +
+                         std::to_string(options.levels) + " asks for " + std::to_string(finest) +
+                         " rays per contour at the top level; the limit is 65536: lower --rays or --levels");
+    if (!(options.minContourArea >= 0.0) || !std::isfinite(options.minContourArea))
+        throw UsageError("the minimum contour area must be a finite number >= 0");
+    if (options.threads < 0) throw UsageError("--threads must be 0 (all cores) or more");
+}
+
+Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
+    : mVolume(volume), mOptions(options)
+{
+    const Clock::time_point start = Clock::now();
+    checkMeshOptions(options);
+    mPlan = planSlices(volume, options.slicing);
+    const std::size_t sliceCount = mPlan.positions.size();
+    mStats.slices = static_cast<int>(sliceCount);
+
+    struct SliceCounts { int small = 0, unwound = 0; };
+    std::vector<SliceCounts> counts(sliceCount);
+    mLoops.assign(sliceCount, {});
+    forEachIndex(options.threads, sliceCount, [&](std::size_t s) {
+        const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
+        for (BoundaryLoop& loop : traceBoundaries(plane)) {
+            if (std::abs(loop.area) < options.minContourArea) { ++counts[s].small; continue; }
+            const glm::dvec2 center = centralPoint(loop);
+            if (castRays(loop, center, RaySet{options.baseRays, 0}, plane).crossings.empty()) {
+                ++counts[s].unwound;
+                continue;
+            }
+            mLoops[s].push_back({std::move(loop), center});
+        }
+    });
+    for (std::size_t s = 0; s < sliceCount; ++s) {
+        mStats.droppedSmall += counts[s].small;
+        mStats.droppedUnwound += counts[s].unwound;
+        mStats.emptySlices += mLoops[s].empty() ? 1 : 0;
+        for (const SliceLoop& l : mLoops[s]) {
+            ++mStats.contours;
+            mStats.holes += l.loop.hole() ? 1 : 0;
+        }
+    }
+    if (mStats.contours == 0)
+        throw Error("'" + volume.source() + "', grid '" + volume.gridName() + "': no slice crosses the surface at iso " +
+                    std::to_string(volume.iso()) + " (" + std::to_string(sliceCount) +
+                    " slices); the object is thinner than the slice spacing: lower --spacing");
+
+    // Correspondence: a contour continues the contour of the previous slice of the same kind
+    // (wall or hole) whose region holds its centre, or holds the other's; the nearest centres
+    // pair first, one to one. A contour with no partner starts a new tube.
+    std::vector<int> tubeOf;
+    for (std::size_t s = 0; s < sliceCount; ++s) {
+        std::vector<int> next(mLoops[s].size(), -1);
+        if (s > 0) {
+            struct Candidate { double distance2; int previous, current; };
+            std::vector<Candidate> candidates;
+            for (int i = 0; i < static_cast<int>(mLoops[s - 1].size()); ++i)
+                for (int j = 0; j < static_cast<int>(mLoops[s].size()); ++j) {
+                    const SliceLoop& a = mLoops[s - 1][i];
+                    const SliceLoop& b = mLoops[s][j];
+                    if (a.loop.hole() != b.loop.hole()) continue;
+                    if (!encloses(a.loop, b.center) && !encloses(b.loop, a.center)) continue;
+                    const glm::dvec2 d = a.center - b.center;
+                    candidates.push_back({d.x * d.x + d.y * d.y, i, j});
+                }
+            std::stable_sort(candidates.begin(), candidates.end(),
+                             [](const Candidate& p, const Candidate& q) { return p.distance2 < q.distance2; });
+            std::vector<bool> taken(mLoops[s - 1].size(), false);
+            for (const Candidate& c : candidates) {
+                if (taken[c.previous] || next[c.current] >= 0) continue;
+                taken[c.previous] = true;
+                next[c.current] = tubeOf[c.previous];
+            }
+        }
+        for (int j = 0; j < static_cast<int>(mLoops[s].size()); ++j) {
+            if (next[j] < 0) {
+                next[j] = static_cast<int>(mTubes.size());
+                mTubes.push_back({});
+                mTubes.back().hole = mLoops[s][j].loop.hole();
+            }
+            mTubes[next[j]].members.push_back({static_cast<int>(s), j});
+        }
+        tubeOf = std::move(next);
+    }
+    // Tubes were created in slice order; their members are already in slice order too.
+    const double reach = options.slicing.spacingVoxels + 2.0;
+    for (Tube& tube : mTubes) {
+        for (const bool top : {false, true}) {
+            const auto [s, l] = top ? tube.members.back() : tube.members.front();
+            const SliceLoop& member = mLoops[s][l];
+            const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
+            double wApex = plane.w();
+            if (tube.hole || !findApex(plane, member.center, top ? 1.0 : -1.0, reach, wApex)) ++mStats.flatCaps;
+            (top ? tube.top : tube.bottom).apexIndex = planeToIndex(mPlan.axis, member.center, wApex);
+        }
+    }
+    mStats.tubes = static_cast<int>(mTubes.size());
+    mStats.seconds = secondsSince(start);
+}
+
+LevelMesh Reconstruction::buildLevel(int level) const
+{
+    if (level < 0 || level >= mOptions.levels)
+        throw UsageError("level " + std::to_string(level) + " is outside 0.." + std::to_string(mOptions.levels - 1));
+    const Clock::time_point start = Clock::now();
+    const RaySet rays{mOptions.baseRays, level};
+    LevelMesh result;
+    result.level = level;
+    result.rays = rays.count();
+
+    std::vector<std::vector<Contour>> contours(mLoops.size());
+    forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
+        if (mLoops[s].empty()) return;
+        const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
+        for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.loop, l.center, rays, plane));
+    });
+
+    TriangleMesh& mesh = result.mesh;
+    const bool mirrored = mVolume.mirrored();
+    auto toWorld = [&](const glm::dvec3& index) { return mVolume.indexToWorld(index); };
+    auto emit = [&](const Triangle& local, const std::uint32_t* ids, bool flip) {
+        Triangle t{ids[local[0]], ids[local[1]], ids[local[2]]};
+        if (flip) std::swap(t[1], t[2]);
+        mesh.triangles.push_back(t);
+    };
+    for (const Tube& tube : mTubes) {
+        // Holes wind the other way round their material; a mirroring transform flips everything.
+        const bool flip = tube.hole != mirrored;
+        std::vector<std::uint32_t> previousIds, ids;
+        for (std::size_t k = 0; k < tube.members.size(); ++k) {
+            const auto [s, l] = tube.members[k];
+            const Contour& c = contours[s][l];
+            if (c.crossings.empty() || countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != rays.count())
+                throw std::logic_error("pipetile internal invariant broken: contour does not wind once (#F - #B != n)");
+            ++result.contours;
+            result.ambiguousContours += isUnambiguous(c) ? 0 : 1;
+            result.interpolationFallbacks += c.interpolationFallbacks;
+            result.crossings += static_cast<long long>(c.crossings.size());
+            ids.clear();
+            for (const Crossing& x : c.crossings) {
+                ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
+                mesh.vertices.push_back(toWorld(planeToIndex(mPlan.axis, x.point, mPlan.positions[s])));
+            }
+            if (k == 0) {
+                ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
+                mesh.vertices.push_back(toWorld(tube.bottom.apexIndex));
+                for (const Triangle& t : tileCap(static_cast<std::uint32_t>(c.crossings.size()), false))
+                    emit(t, ids.data(), flip);
+                ids.pop_back();
+            } else {
+                const auto [ps, pl] = tube.members[k - 1];
+                std::vector<std::uint32_t> both = previousIds;
+                both.insert(both.end(), ids.begin(), ids.end());
+                for (const Triangle& t : tileBand(contours[ps][pl].edges, c.edges)) emit(t, both.data(), flip);
+            }
+            if (k + 1 == tube.members.size()) {
+                ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
+                mesh.vertices.push_back(toWorld(tube.top.apexIndex));
+                for (const Triangle& t : tileCap(static_cast<std::uint32_t>(c.crossings.size()), true))
+                    emit(t, ids.data(), flip);
+                ids.pop_back();
+            }
+            previousIds = ids;
+        }
+    }
+    result.seconds = secondsSince(start);
+    return result;
+}
+
+} // namespace pipetile

@@ -1,0 +1,186 @@
+// pipetile — slicer: slicing axis, slice positions, and sampling the grid on one slice plane.
+
+#include <pipetile/error.h>
+#include <pipetile/slicer.h>
+#include <pipetile/volume_grid.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace pipetile {
+
+namespace {
+
+constexpr int kLeafDim = 8; // openvdb::FloatTree leaf nodes are 8^3
+
+int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+} // namespace
+
+glm::dvec3 planeToIndex(int axis, const glm::dvec2& uv, double w)
+{
+    glm::dvec3 p;
+    p[axis] = w;
+    p[(axis + 1) % 3] = uv.x;
+    p[(axis + 2) % 3] = uv.y;
+    return p;
+}
+
+SlicePlan planSlices(const Volume& volume, const SliceOptions& options)
+{
+    if (!std::isfinite(options.spacingVoxels) || options.spacingVoxels < 0.1 || options.spacingVoxels > 1000.0)
+        throw UsageError("--spacing must be between 0.1 and 1000 voxels (got " +
+                         std::to_string(options.spacingVoxels) + ")");
+    const glm::ivec3 lo = volume.bboxMin(), hi = volume.bboxMax();
+    SlicePlan plan;
+    if (options.axis == Axis::Auto) {
+        // The longest side in world units: anisotropic voxels count at their real length.
+        double best = -1.0;
+        const glm::dvec3 origin = volume.indexToWorld(glm::dvec3(0.0));
+        for (int a = 0; a < 3; ++a) {
+            glm::dvec3 unit(0.0);
+            unit[a] = 1.0;
+            const glm::dvec3 step = volume.indexToWorld(unit) - origin;
+            const double length = (hi[a] - lo[a] + 1) * std::sqrt(step.x * step.x + step.y * step.y + step.z * step.z);
+            if (length > best + 1e-9) { best = length; plan.axis = a; }
+        }
+    } else {
+        plan.axis = static_cast<int>(options.axis);
+    }
+    const int a = plan.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
+    const int count = static_cast<int>(std::floor((hi[a] - lo[a]) / options.spacingVoxels)) + 1;
+    plan.positions.reserve(count);
+    for (int i = 0; i < count; ++i) plan.positions.push_back(lo[a] + i * options.spacingVoxels);
+    plan.pixelMin = glm::ivec2(lo[ua] - 1, lo[va] - 1);
+    plan.pixelMax = glm::ivec2(hi[ua] + 1, hi[va] + 1);
+
+    // Bucket the leaf nodes by their slab along w, so a plane finds its boundary seeds without
+    // visiting the whole tree.
+    const openvdb::FloatTree& tree = gridOf(volume).tree();
+    plan.leafOriginMin = floorDiv(lo[a], kLeafDim) * kLeafDim;
+    const int slabs = floorDiv(hi[a], kLeafDim) - floorDiv(lo[a], kLeafDim) + 1;
+    plan.leafFootprints.assign(std::max(slabs, 0), {});
+    for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
+        const openvdb::Coord o = leaf->origin();
+        const int slab = (o[a] - plan.leafOriginMin) / kLeafDim;
+        if (slab < 0 || slab >= slabs) continue;
+        plan.leafFootprints[slab].push_back(glm::ivec2(o[ua], o[va]));
+    }
+    // Tree iteration order is deterministic, but sort anyway so seeds never depend on it.
+    for (auto& footprints : plan.leafFootprints)
+        std::sort(footprints.begin(), footprints.end(),
+                  [](const glm::ivec2& p, const glm::ivec2& q) { return p.y != q.y ? p.y < q.y : p.x < q.x; });
+    return plan;
+}
+
+struct SlicePlane::Impl {
+    const Volume* volume;
+    const SlicePlan* plan;
+    double w;
+    int w0;        // voxel plane below (or at) w
+    double frac;   // w - w0, in [0, 1)
+    double sign;   // +1 level set, -1 fog: turns values into the signed field
+    double iso;
+    mutable openvdb::FloatGrid::ConstAccessor accessor;
+
+    Impl(const Volume& vol, const SlicePlan& p, double wPlane)
+        : volume(&vol), plan(&p), w(wPlane), w0(static_cast<int>(std::floor(wPlane))), frac(wPlane - std::floor(wPlane)),
+          sign(vol.volumeClass() == VolumeClass::LevelSet ? 1.0 : -1.0), iso(vol.iso()),
+          accessor(gridOf(vol).getConstAccessor())
+    {}
+
+    double voxel(int u, int v, int wi) const
+    {
+        openvdb::Coord c;
+        c[plan->axis] = wi;
+        c[(plan->axis + 1) % 3] = u;
+        c[(plan->axis + 2) % 3] = v;
+        return sign * (static_cast<double>(accessor.getValue(c)) - iso);
+    }
+
+    double pixel(int u, int v) const
+    {
+        const double a = voxel(u, v, w0);
+        return frac == 0.0 ? a : a + frac * (voxel(u, v, w0 + 1) - a);
+    }
+};
+
+SlicePlane::SlicePlane(const Volume& volume, const SlicePlan& plan, double w)
+    : mImpl(std::make_unique<Impl>(volume, plan, w))
+{}
+SlicePlane::~SlicePlane() = default;
+SlicePlane::SlicePlane(SlicePlane&&) noexcept = default;
+SlicePlane& SlicePlane::operator=(SlicePlane&&) noexcept = default;
+
+double SlicePlane::w() const { return mImpl->w; }
+const SlicePlan& SlicePlane::plan() const { return *mImpl->plan; }
+
+double SlicePlane::value(int u, int v) const { return mImpl->pixel(u, v); }
+
+bool SlicePlane::inside(int u, int v) const
+{
+    const SlicePlan& p = *mImpl->plan;
+    if (u < p.pixelMin.x || v < p.pixelMin.y || u > p.pixelMax.x || v > p.pixelMax.y) return false;
+    return mImpl->pixel(u, v) < 0.0;
+}
+
+double SlicePlane::sample(const glm::dvec2& uv) const
+{
+    const double fu = std::floor(uv.x), fv = std::floor(uv.y);
+    const int u = static_cast<int>(fu), v = static_cast<int>(fv);
+    const double s = uv.x - fu, t = uv.y - fv;
+    const double a = mImpl->pixel(u, v), b = mImpl->pixel(u + 1, v);
+    const double c = mImpl->pixel(u, v + 1), d = mImpl->pixel(u + 1, v + 1);
+    return (1.0 - t) * (a + s * (b - a)) + t * (c + s * (d - c));
+}
+
+double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
+{
+    const double fw = std::floor(w);
+    const int wi = static_cast<int>(fw);
+    const double r = w - fw;
+    const double fu = std::floor(uv.x), fv = std::floor(uv.y);
+    const int u = static_cast<int>(fu), v = static_cast<int>(fv);
+    const double s = uv.x - fu, t = uv.y - fv;
+    auto bilinear = [&](int plane) {
+        const double a = mImpl->voxel(u, v, plane), b = mImpl->voxel(u + 1, v, plane);
+        const double c = mImpl->voxel(u, v + 1, plane), d = mImpl->voxel(u + 1, v + 1, plane);
+        return (1.0 - t) * (a + s * (b - a)) + t * (c + s * (d - c));
+    };
+    const double lower = bilinear(wi);
+    return r == 0.0 ? lower : lower + r * (bilinear(wi + 1) - lower);
+}
+
+std::vector<glm::ivec2> SlicePlane::eastCracks() const
+{
+    const SlicePlan& p = *mImpl->plan;
+    // The plane reads voxel planes w0 and, between planes, w0 + 1: their leaves hold the boundary.
+    std::vector<glm::ivec2> origins;
+    for (int wi : {mImpl->w0, mImpl->w0 + 1}) {
+        if (wi == mImpl->w0 + 1 && mImpl->frac == 0.0) break;
+        const int slab = floorDiv(wi - p.leafOriginMin, kLeafDim);
+        if (slab < 0 || slab >= static_cast<int>(p.leafFootprints.size())) continue;
+        origins.insert(origins.end(), p.leafFootprints[slab].begin(), p.leafFootprints[slab].end());
+    }
+    std::sort(origins.begin(), origins.end(),
+              [](const glm::ivec2& a, const glm::ivec2& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+    origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
+
+    std::vector<glm::ivec2> cracks;
+    for (const glm::ivec2& o : origins) {
+        for (int v = o.y; v < o.y + kLeafDim; ++v) {
+            bool in = inside(o.x, v);
+            for (int u = o.x; u < o.x + kLeafDim; ++u) {
+                const bool next = inside(u + 1, v);
+                if (in && !next) cracks.push_back(glm::ivec2(u, v));
+                in = next;
+            }
+        }
+    }
+    std::sort(cracks.begin(), cracks.end(),
+              [](const glm::ivec2& a, const glm::ivec2& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+    return cracks;
+}
+
+} // namespace pipetile

@@ -1,0 +1,290 @@
+// pipetile — volume: reading a .vdb, picking the grid, level set vs fog, isovalue, transform.
+
+#include <pipetile/error.h>
+#include <pipetile/volume_grid.h>
+
+#include <pipetile/detail/atomic_file.h>
+
+#include <openvdb/io/File.h>
+#include <openvdb/tools/Interpolation.h>
+
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <sstream>
+
+namespace pipetile {
+
+namespace {
+
+void initializeOpenVdb()
+{
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+std::string inQuotes(const std::string& s) { return "'" + s + "'"; }
+
+std::string formatValue(double v)
+{
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+std::string gridClassName(openvdb::GridClass c)
+{
+    switch (c) {
+    case openvdb::GRID_LEVEL_SET: return "level set";
+    case openvdb::GRID_FOG_VOLUME: return "fog volume";
+    case openvdb::GRID_STAGGERED: return "staggered";
+    default: return "unknown";
+    }
+}
+
+// Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
+std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
+{
+    initializeOpenVdb();
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec))
+        throw Error(inQuotes(path) + ": no such file; check the path");
+    if (std::filesystem::is_directory(path, ec))
+        throw Error(inQuotes(path) + ": is a directory, not a .vdb file");
+    auto file = std::make_unique<openvdb::io::File>(path);
+    try {
+        file->open(/*delayLoad=*/false);
+    } catch (const std::exception& e) {
+        throw Error(inQuotes(path) + ": not a readable VDB file (" + e.what() +
+                    "); check that it is a complete .vdb written by OpenVDB 3 or later");
+    }
+    return file;
+}
+
+std::string listNames(const std::vector<GridSummary>& grids)
+{
+    std::string s;
+    for (const GridSummary& g : grids) {
+        if (!s.empty()) s += ", ";
+        s += inQuotes(g.name) + " (" + g.valueType + ")";
+    }
+    return s.empty() ? "none" : s;
+}
+
+GridSummary summarize(const openvdb::GridBase& grid)
+{
+    GridSummary s;
+    s.name = grid.getName();
+    s.valueType = grid.valueType();
+    s.gridClass = gridClassName(grid.getGridClass());
+    const openvdb::Vec3d vs = grid.voxelSize();
+    s.voxelSize = glm::dvec3(vs.x(), vs.y(), vs.z());
+    if (auto count = grid.getMetadata<openvdb::Int64Metadata>(openvdb::GridBase::META_FILE_VOXEL_COUNT))
+        s.activeVoxels = count->value();
+    auto bmin = grid.getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MIN);
+    auto bmax = grid.getMetadata<openvdb::Vec3IMetadata>(openvdb::GridBase::META_FILE_BBOX_MAX);
+    if (bmin && bmax) {
+        s.bboxMin = glm::ivec3(bmin->value().x(), bmin->value().y(), bmin->value().z());
+        s.bboxMax = glm::ivec3(bmax->value().x(), bmax->value().y(), bmax->value().z());
+    }
+    return s;
+}
+
+} // namespace
+
+const char* toString(VolumeClass volumeClass)
+{
+    return volumeClass == VolumeClass::LevelSet ? "level set" : "fog volume";
+}
+
+const std::string& Volume::source() const { return mImpl->source; }
+const std::string& Volume::gridName() const { return mImpl->gridName; }
+VolumeClass Volume::volumeClass() const { return mImpl->volumeClass; }
+double Volume::iso() const { return mImpl->iso; }
+double Volume::minValue() const { return mImpl->minValue; }
+double Volume::maxValue() const { return mImpl->maxValue; }
+
+glm::dvec3 Volume::voxelSize() const
+{
+    const openvdb::Vec3d v = mImpl->grid->voxelSize();
+    return {v.x(), v.y(), v.z()};
+}
+
+double Volume::smallestVoxel() const
+{
+    const glm::dvec3 v = voxelSize();
+    return std::min(v.x, std::min(v.y, v.z));
+}
+
+glm::ivec3 Volume::bboxMin() const
+{
+    const openvdb::Coord c = mImpl->bbox.min();
+    return {c.x(), c.y(), c.z()};
+}
+
+glm::ivec3 Volume::bboxMax() const
+{
+    const openvdb::Coord c = mImpl->bbox.max();
+    return {c.x(), c.y(), c.z()};
+}
+
+glm::dvec3 Volume::indexToWorld(const glm::dvec3& index) const
+{
+    const openvdb::Vec3d w = mImpl->grid->transform().indexToWorld(openvdb::Vec3d(index.x, index.y, index.z));
+    return {w.x(), w.y(), w.z()};
+}
+
+glm::dvec3 Volume::worldToIndex(const glm::dvec3& world) const
+{
+    const openvdb::Vec3d i = mImpl->grid->transform().worldToIndex(openvdb::Vec3d(world.x, world.y, world.z));
+    return {i.x(), i.y(), i.z()};
+}
+
+bool Volume::mirrored() const
+{
+    const openvdb::Vec3d o = mImpl->grid->transform().indexToWorld(openvdb::Vec3d(0.0));
+    const openvdb::Vec3d ex = mImpl->grid->transform().indexToWorld(openvdb::Vec3d(1, 0, 0)) - o;
+    const openvdb::Vec3d ey = mImpl->grid->transform().indexToWorld(openvdb::Vec3d(0, 1, 0)) - o;
+    const openvdb::Vec3d ez = mImpl->grid->transform().indexToWorld(openvdb::Vec3d(0, 0, 1)) - o;
+    return ex.cross(ey).dot(ez) < 0.0;
+}
+
+double Volume::signedField(const glm::dvec3& world) const
+{
+    const openvdb::Vec3d index = mImpl->grid->transform().worldToIndex(openvdb::Vec3d(world.x, world.y, world.z));
+    const double v = openvdb::tools::BoxSampler::sample(mImpl->grid->tree(), index);
+    return mImpl->volumeClass == VolumeClass::LevelSet ? v - mImpl->iso : mImpl->iso - v;
+}
+
+std::vector<GridSummary> listGrids(const std::string& path)
+{
+    auto file = openFile(path);
+    std::vector<GridSummary> grids;
+    try {
+        for (const openvdb::GridBase::Ptr& g : *file->readAllGridMetadata()) grids.push_back(summarize(*g));
+    } catch (const std::exception& e) {
+        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
+                    "); the file may be truncated or damaged");
+    }
+    return grids;
+}
+
+Volume readVolume(const std::string& path, const VolumeOptions& options)
+{
+    auto file = openFile(path);
+    std::vector<GridSummary> grids;
+    try {
+        for (const openvdb::GridBase::Ptr& g : *file->readAllGridMetadata()) grids.push_back(summarize(*g));
+    } catch (const std::exception& e) {
+        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
+                    "); the file may be truncated or damaged");
+    }
+    if (grids.empty()) throw Error(inQuotes(path) + ": holds no grids; nothing to mesh");
+
+    std::string name = options.gridName;
+    if (name.empty()) {
+        for (const GridSummary& g : grids)
+            if (g.valueType == "float") { name = g.name; break; }
+        if (name.empty())
+            throw Error(inQuotes(path) + ": holds no scalar float grid (grids: " + listNames(grids) +
+                        "); pipetile meshes float level sets and fog volumes");
+    } else {
+        const auto it = std::find_if(grids.begin(), grids.end(), [&](const GridSummary& g) { return g.name == name; });
+        if (it == grids.end())
+            throw Error(inQuotes(path) + ": has no grid named " + inQuotes(name) + " (grids: " + listNames(grids) +
+                        "); pick one with --grid");
+        if (it->valueType != "float")
+            throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " holds " + it->valueType +
+                        " values, not float; pick a scalar float grid with --grid (grids: " + listNames(grids) + ")");
+    }
+
+    openvdb::GridBase::Ptr base;
+    try {
+        base = file->readGrid(name);
+    } catch (const std::exception& e) {
+        throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) + " (" + e.what() +
+                    "); the file may be truncated or damaged");
+    }
+    auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+    if (!grid)
+        throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " is not a float grid; pick another with --grid");
+    return volumeFromGrid(grid, options, path);
+}
+
+Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& options, const std::string& source)
+{
+    initializeOpenVdb();
+    const std::string where = inQuotes(source) + ", grid " + inQuotes(input->getName());
+    if (input->tree().activeVoxelCount() == 0)
+        throw Error(where + ": the grid is empty (no active voxels); nothing to mesh");
+
+    // Boundaries must lie in leaf nodes, where the slicer looks for them (fog volumes often hold
+    // constant active tiles inside); voxelizing a copy keeps the caller's grid untouched.
+    openvdb::FloatGrid::ConstPtr grid = input;
+    if (input->tree().activeTileCount() > 0) {
+        openvdb::FloatGrid::Ptr copy = input->deepCopy();
+        copy->tree().voxelizeActiveTiles();
+        grid = copy;
+    }
+
+    const double background = grid->background();
+    double lo = background, hi = background;
+    long long nonFinite = 0;
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const double v = *it;
+        if (!std::isfinite(v)) { ++nonFinite; continue; }
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+    }
+    if (nonFinite > 0 || !std::isfinite(background))
+        throw Error(where + ": holds " + std::to_string(nonFinite) + " NaN or infinite values" +
+                    (std::isfinite(background) ? "" : " (and a non-finite background)") +
+                    "; repair the grid (e.g. clamp it) before meshing");
+
+    auto impl = std::make_shared<Volume::Impl>();
+    impl->grid = grid;
+    impl->source = source;
+    impl->gridName = input->getName();
+    impl->minValue = lo;
+    impl->maxValue = hi;
+    impl->bbox = grid->evalActiveVoxelBoundingBox();
+
+    // Class: the grid's own metadata decides; an unclassified grid whose background is positive
+    // and whose values go negative reads as a signed distance field.
+    const openvdb::GridClass gc = grid->getGridClass();
+    if (gc == openvdb::GRID_LEVEL_SET) impl->volumeClass = VolumeClass::LevelSet;
+    else if (gc == openvdb::GRID_FOG_VOLUME) impl->volumeClass = VolumeClass::Fog;
+    else impl->volumeClass = (background > 0.0 && lo < 0.0) ? VolumeClass::LevelSet : VolumeClass::Fog;
+
+    if (options.iso) {
+        if (!std::isfinite(*options.iso)) throw UsageError(where + ": the isovalue must be a finite number");
+        impl->iso = *options.iso;
+    } else {
+        // Fog: halfway between the background (empty space) and the densest value, which is 0.5 for
+        // a 0..1 density and -500 for a CT-like -1000..0 volume.
+        impl->iso = impl->volumeClass == VolumeClass::LevelSet ? 0.0 : 0.5 * (background + hi);
+    }
+    const double iso = impl->iso;
+    if (!(lo < iso && iso < hi))
+        throw Error(where + ": isovalue " + formatValue(iso) + " crosses nothing (values range from " +
+                    formatValue(lo) + " to " + formatValue(hi) + "); choose --iso inside that range");
+    const bool backgroundInside = impl->volumeClass == VolumeClass::LevelSet ? background < iso : background > iso;
+    if (backgroundInside)
+        throw Error(where + ": the background value " + formatValue(background) + " lies inside the surface at iso " +
+                    formatValue(iso) + ", so the object is unbounded; check the grid class (" +
+                    toString(impl->volumeClass) + ") or choose another --iso");
+    return Volume(impl);
+}
+
+void writeVolume(const Volume& volume, const std::string& path)
+{
+    initializeOpenVdb();
+    detail::writeAtomically(path, [&](const std::string& tmp) {
+        openvdb::GridCPtrVec grids{volume.impl().grid};
+        openvdb::io::File file(tmp);
+        file.write(grids);
+        file.close();
+    });
+}
+
+} // namespace pipetile

@@ -1,0 +1,79 @@
+#include "test_util.h"
+
+#include "phantoms.h"
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <sys/wait.h>
+
+namespace pipetile::test {
+
+TempDir::TempDir()
+{
+    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = info ? std::string(info->test_suite_name()) + "_" + info->name() : "pipetile";
+    for (char& c : name)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+    mPath = std::filesystem::temp_directory_path() / ("pipetile_test_" + name + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(mPath);
+    std::filesystem::create_directories(mPath);
+}
+
+TempDir::~TempDir()
+{
+    std::error_code ec;
+    std::filesystem::remove_all(mPath, ec);
+}
+
+std::vector<std::string> TempDir::files() const
+{
+    std::vector<std::string> names;
+    for (const auto& entry : std::filesystem::directory_iterator(mPath)) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+namespace {
+std::string slurp(const std::string& path)
+{
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+} // namespace
+
+CliResult runCli(const std::string& args)
+{
+    static int counter = 0;
+    const std::string base = (std::filesystem::temp_directory_path() /
+                              ("pipetile_cli_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
+    const std::string command = std::string("'") + PIPETILE_CLI + "' " + args + " > '" + base + ".out' 2> '" + base + ".err'";
+    const int status = std::system(command.c_str());
+    CliResult result;
+    result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    result.out = slurp(base + ".out");
+    result.err = slurp(base + ".err");
+    std::filesystem::remove(base + ".out");
+    std::filesystem::remove(base + ".err");
+    return result;
+}
+
+const Volume& cachedSample(const std::string& name)
+{
+    static std::mutex mutex;
+    static std::map<std::string, Volume> cache;
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(name);
+    if (it == cache.end()) it = cache.emplace(name, samples::makeSample(name)).first;
+    return it->second;
+}
+
+std::string realData(const std::string& file) { return std::string(PIPETILE_REAL_DATA) + "/" + file; }
+
+} // namespace pipetile::test

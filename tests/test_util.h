@@ -1,0 +1,39 @@
+// Shared helpers of the test suite: temporary folders, running the CLI, cached samples.
+#pragma once
+
+#include <pipetile/volume.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+namespace pipetile::test {
+
+/// A fresh, empty folder for one test, removed at the end of the test.
+class TempDir {
+public:
+    TempDir();
+    ~TempDir();
+    std::string path(const std::string& name) const { return (mPath / name).string(); }
+    std::vector<std::string> files() const; // names of the files in it, sorted
+
+private:
+    std::filesystem::path mPath;
+};
+
+struct CliResult {
+    int exitCode = -1;
+    std::string out, err;
+};
+
+/// Runs the pipetile executable with `args` (shell-quoted by the caller where needed).
+CliResult runCli(const std::string& args);
+
+/// Generated samples, made once per test process.
+const Volume& cachedSample(const std::string& name);
+
+/// A real third-party volume from ../shared/data/real.
+std::string realData(const std::string& file);
+
+} // namespace pipetile::test

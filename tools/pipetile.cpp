@@ -1,0 +1,233 @@
+// pipetile — the command line: parse, call the library, print, map exceptions to exit codes.
+// Exit codes: 0 ok, 1 a failure (the message names the file or grid and what to do), 2 usage.
+
+#include <pipetile/detail/atomic_file.h>
+#include <pipetile/pipetile.h>
+
+#include "phantoms.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+const char* axisName(int axis) { return axis == 0 ? "x" : axis == 1 ? "y" : "z"; }
+
+void writeJson(const json& report, const std::string& path)
+{
+    pipetile::detail::writeAtomically(path, [&](const std::string& tmp) {
+        std::ofstream out(tmp);
+        out << report.dump(2) << '\n';
+        out.close();
+        if (!out) throw pipetile::Error("'" + path + "': cannot write the report; check the folder");
+    });
+}
+
+// name_L<k>.ext next to the path the user gave.
+std::string levelPath(const std::string& output, int level)
+{
+    const std::filesystem::path p(output);
+    std::filesystem::path name = p.parent_path() / (p.stem().string() + "_L" + std::to_string(level));
+    name += p.extension();
+    return name.string();
+}
+
+void checkWritableTarget(const std::string& path, const char* what)
+{
+    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
+        throw pipetile::Error("'" + path + "': the folder '" + folder.string() + "' for the " + what +
+                              " does not exist; create it first");
+}
+
+struct MeshArgs {
+    std::string input, output, grid, report;
+    std::optional<double> iso;
+    std::string axis = "auto";
+    double spacing = 2.0;
+    int rays = 8, levels = 4, threads = 0;
+};
+
+int runMesh(const MeshArgs& args)
+{
+    const Clock::time_point start = Clock::now();
+    pipetile::MeshOptions options;
+    options.slicing.spacingVoxels = args.spacing;
+    options.slicing.axis = args.axis == "x" ? pipetile::Axis::X : args.axis == "y" ? pipetile::Axis::Y
+                         : args.axis == "z" ? pipetile::Axis::Z : pipetile::Axis::Auto;
+    options.baseRays = args.rays;
+    options.levels = args.levels;
+    options.threads = args.threads;
+    pipetile::checkMeshOptions(options);
+
+    // Fail before any work on outputs that could never be written.
+    const std::string output = !args.output.empty() ? args.output
+        : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) + ".ply";
+    if (!pipetile::isMeshExtension(output))
+        throw pipetile::UsageError("-o '" + output + "': unknown mesh format; use .ply .obj .stl .off");
+    checkWritableTarget(output, "meshes");
+    if (!args.report.empty()) checkWritableTarget(args.report, "report");
+
+    pipetile::VolumeOptions volumeOptions;
+    volumeOptions.gridName = args.grid;
+    volumeOptions.iso = args.iso;
+    const pipetile::Volume volume = args.input.empty() ? pipetile::samples::makeSample("phantom")
+                                                       : pipetile::readVolume(args.input, volumeOptions);
+    if (args.input.empty() && args.iso) throw pipetile::UsageError("--iso needs an INPUT file");
+
+    const pipetile::Reconstruction reconstruction(volume, options);
+    std::vector<pipetile::LevelMesh> levels;
+    for (int level = 0; level < reconstruction.levelCount(); ++level) levels.push_back(reconstruction.buildLevel(level));
+
+    // Every level is written only once all of them exist; a failure removes what this run wrote.
+    std::vector<std::string> written;
+    try {
+        for (const pipetile::LevelMesh& level : levels) {
+            const std::string path = levelPath(output, level.level);
+            pipetile::writeMesh(level.mesh, path);
+            written.push_back(path);
+        }
+    } catch (...) {
+        std::error_code ec;
+        for (const std::string& path : written) std::filesystem::remove(path, ec);
+        throw;
+    }
+
+    const pipetile::ReconstructionStats& stats = reconstruction.stats();
+    json report = {
+        {"input", volume.source()},
+        {"grid", volume.gridName()},
+        {"class", pipetile::toString(volume.volumeClass())},
+        {"iso", volume.iso()},
+        {"axis", axisName(reconstruction.plan().axis)},
+        {"spacing", options.slicing.spacingVoxels},
+        {"voxel", volume.smallestVoxel()},
+        {"slices", stats.slices},
+        {"statistics", {{"empty_slices", stats.emptySlices}, {"contours", stats.contours}, {"holes", stats.holes},
+                        {"tubes", stats.tubes}, {"dropped_small_contours", stats.droppedSmall},
+                        {"dropped_unwound_contours", stats.droppedUnwound}, {"flat_caps", stats.flatCaps},
+                        {"seconds", stats.seconds}}},
+        {"levels", json::array()},
+    };
+    std::printf("%s  grid '%s' (%s, iso %g), axis %s, %d slices, %d contours in %d tubes\n", volume.source().c_str(),
+                volume.gridName().c_str(), pipetile::toString(volume.volumeClass()), volume.iso(),
+                axisName(reconstruction.plan().axis), stats.slices, stats.contours, stats.tubes);
+    std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
+    for (std::size_t k = 0; k < levels.size(); ++k) {
+        const pipetile::LevelMesh& level = levels[k];
+        report["levels"].push_back({
+            {"level", level.level},
+            {"rays", level.rays},
+            {"file", written[k]},
+            {"vertices", level.mesh.vertices.size()},
+            {"triangles", level.mesh.triangles.size()},
+            {"seconds", level.seconds},
+            {"contours", level.contours},
+            {"ambiguous_contours", level.ambiguousContours},
+            {"interpolation_fallbacks", level.interpolationFallbacks},
+        });
+        std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
+                    level.mesh.triangles.size(), level.seconds, written[k].c_str());
+    }
+    report["seconds"] = secondsSince(start);
+    if (!args.report.empty()) writeJson(report, args.report);
+    return 0;
+}
+
+int runSample(const std::string& name, const std::string& output, bool list)
+{
+    if (list || name.empty()) {
+        for (const pipetile::samples::SampleInfo& s : pipetile::samples::sampleList())
+            std::printf("%-10s %4d x %4d x %4d  %s\n", s.name.c_str(), s.dims.x, s.dims.y, s.dims.z, s.description.c_str());
+        return 0;
+    }
+    if (output.empty()) throw pipetile::UsageError("sample: give the output file with -o FILE.vdb");
+    if (std::filesystem::path(output).extension() != ".vdb")
+        throw pipetile::UsageError("-o '" + output + "': samples are written as .vdb files");
+    checkWritableTarget(output, "sample");
+    pipetile::writeVolume(pipetile::samples::makeSample(name), output);
+    std::printf("wrote %s (%s)\n", output.c_str(), name.c_str());
+    return 0;
+}
+
+int runInfo(const std::string& input)
+{
+    for (const pipetile::GridSummary& g : pipetile::listGrids(input)) {
+        std::printf("grid '%s': %s, %s, %lld active voxels, bbox [%d %d %d] -> [%d %d %d], voxel %g x %g x %g\n",
+                    g.name.c_str(), g.valueType.c_str(), g.gridClass.c_str(), g.activeVoxels, g.bboxMin.x, g.bboxMin.y,
+                    g.bboxMin.z, g.bboxMax.x, g.bboxMax.y, g.bboxMax.z, g.voxelSize.x, g.voxelSize.y, g.voxelSize.z);
+    }
+    return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    CLI::App app{"pipetile: multiresolution triangle meshes of pipe-shaped objects from OpenVDB volumes"};
+    app.require_subcommand(1);
+
+    MeshArgs meshArgs;
+    CLI::App* mesh = app.add_subcommand("mesh", "Mesh a .vdb volume (default: the bundled phantom) at several levels");
+    mesh->add_option("INPUT", meshArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
+    mesh->add_option("-o,--output", meshArgs.output, "output mesh; level k goes to NAME_L<k>.EXT (.ply .obj .stl .off)");
+    mesh->add_option("--grid", meshArgs.grid, "grid name (default: the first float grid)");
+    mesh->add_option("--iso", meshArgs.iso, "isovalue (default: 0 for level sets; fog: halfway from background to max)");
+    mesh->add_option("--axis", meshArgs.axis, "slicing axis")->check(CLI::IsMember({"x", "y", "z", "auto"}));
+    mesh->add_option("--spacing", meshArgs.spacing, "slice spacing in voxels")->check(CLI::Range(0.1, 1000.0));
+    mesh->add_option("--rays", meshArgs.rays, "rays at level 0 (n0)")->check(CLI::Range(3, 4096));
+    mesh->add_option("--levels", meshArgs.levels, "levels of detail")->check(CLI::Range(1, 16));
+    mesh->add_option("--report", meshArgs.report, "write a JSON report");
+    mesh->add_option("--threads", meshArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
+
+    std::string sampleName, sampleOutput;
+    bool sampleList = false;
+    CLI::App* sample = app.add_subcommand("sample", "Write a generated sample volume (phantom) with known geometry");
+    sample->add_option("NAME", sampleName, "sample name (see --list)");
+    sample->add_option("-o,--output", sampleOutput, "output .vdb file");
+    sample->add_flag("--list", sampleList, "list the samples");
+
+    std::string infoInput;
+    CLI::App* info = app.add_subcommand("info", "List the grids of a .vdb file");
+    info->add_option("INPUT", infoInput, "input .vdb file")->required();
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "pipetile: usage error: %s (see pipetile --help)\n", e.what());
+        return 2;
+    }
+
+    try {
+        if (mesh->parsed()) return runMesh(meshArgs);
+        if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);
+        if (info->parsed()) return runInfo(infoInput);
+    } catch (const pipetile::UsageError& e) {
+        std::fprintf(stderr, "pipetile: usage error: %s\n", e.what());
+        return 2;
+    } catch (const pipetile::Error& e) {
+        std::fprintf(stderr, "pipetile: error: %s\n", e.what());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "pipetile: internal error: %s (please report it with the input)\n", e.what());
+        return 1;
+    }
+    return 2;
+}
