@@ -47,10 +47,10 @@ void finishLoop(BoundaryLoop& loop)
 }
 
 // The chain-code walk over every loop of an image, seeded from its east-facing cracks. `inside`
-// must read false outside [boxMin, boxMax] so that every walk closes.
-template <class InsideFn>
-std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const std::vector<glm::ivec2>& eastCracks,
-                                     glm::ivec2 boxMin, glm::ivec2 boxMax)
+// must read false outside [boxMin, boxMax] so that every walk closes; `value` is the field.
+template <class InsideFn, class ValueFn>
+std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& value,
+                                     const std::vector<glm::ivec2>& eastCracks, glm::ivec2 boxMin, glm::ivec2 boxMax)
 {
     const int width = boxMax.x - boxMin.x + 2, height = boxMax.y - boxMin.y + 2;
     std::vector<std::uint8_t> visited(static_cast<std::size_t>(width) * height, 0);
@@ -68,6 +68,12 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const std::vector<g
         int d = 1;
         do {
             loop.corners.push_back(c);
+            // The surface crosses the segment between this crack's inside and outside pixel
+            // centres where the linearly interpolated field is zero (a marching-squares point).
+            const glm::ivec2 in = c + kLeft[d], out = c + kLeft[(d + 3) % 4];
+            const double fin = value(in.x, in.y), fout = value(out.x, out.y);
+            const double s = fin < fout ? std::clamp(fin / (fin - fout), 0.0, 1.0) : 0.5;
+            loop.points.push_back(glm::dvec2(in) + s * glm::dvec2(out - in));
             if (d == 1) mark(c + kLeft[1]) = 1; // its left pixel is the seed it would start from
             c += kStep[d];
             const bool aheadRight = inside(c.x + kLeft[(d + 3) % 4].x, c.y + kLeft[(d + 3) % 4].y);
@@ -163,7 +169,10 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
     }
     if (!std::isfinite(bestDistance)) return false;
     // Illinois false position: the field is smooth along the ray, so this converges in a few steps.
-    if (gb == 0.0) { t = bestB; return true; }
+    if (ga == 0.0 || gb == 0.0) {
+        t = ga == 0.0 ? bestA : bestB; // the root is a sample
+        return true;
+    }
     int side = 0;
     t = 0.5 * (bestA + bestB);
     for (int iteration = 0; iteration < 60 && bestB - bestA > 1e-10; ++iteration) {
@@ -199,7 +208,7 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
     // A hole's loop runs clockwise; walk it reversed so the contour winds counterclockwise around
     // its centre, with the hollow as its "inside".
     std::vector<glm::dvec2> poly(m);
-    for (std::size_t i = 0; i < m; ++i) poly[i] = cornerPoint(loop.corners[contour.hole ? m - 1 - i : i]);
+    for (std::size_t i = 0; i < m; ++i) poly[i] = loop.points[contour.hole ? m - 1 - i : i];
     const double inwardSign = contour.hole ? -1.0 : 1.0;
 
     // Ray coordinate of each corner: angle / 2pi * n. It is computed as (fraction * n0) * 2^level,
@@ -279,11 +288,17 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
         auto g = [&](double t) { return inwardSign * field(center + t * d); };
         for (std::size_t k = 0; k < ids.size(); ++k) {
             Crossing& c = contour.crossings[ids[k]];
-            double lower = std::max(c.crackT - 1.0, 0.0);
-            double upper = c.crackT + 1.0;
-            if (k > 0) lower = std::max(lower, 0.5 * (contour.crossings[ids[k - 1]].crackT + c.crackT));
-            if (k + 1 < ids.size()) upper = std::min(upper, 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT));
-            if (!refineCrossing(g, c.kind == CrossingKind::InOut, c.crackT, lower, upper, c.t)) {
+            // Never past the neighbouring crossings of the same ray, so the order stays the walk's.
+            double lowest = 0.0, highest = std::numeric_limits<double>::infinity();
+            if (k > 0) lowest = 0.5 * (contour.crossings[ids[k - 1]].crackT + c.crackT);
+            if (k + 1 < ids.size()) highest = 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT);
+            // The polygon lies within its chord error of the surface: search close to it first.
+            bool found = false;
+            for (double reach : {0.5, 1.5}) {
+                const double lower = std::max(c.crackT - reach, lowest), upper = std::min(c.crackT + reach, highest);
+                if ((found = refineCrossing(g, c.kind == CrossingKind::InOut, c.crackT, lower, upper, c.t))) break;
+            }
+            if (!found) {
                 c.t = c.crackT;
                 ++contour.interpolationFallbacks;
             }
@@ -319,7 +334,8 @@ double FieldImage::sample(const glm::dvec2& uv) const
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
 {
     const SlicePlan& plan = plane.plan();
-    return traceLoops([&](int u, int v) { return plane.inside(u, v); }, plane.eastCracks(), plan.pixelMin,
+    return traceLoops([&](int u, int v) { return plane.inside(u, v); },
+                      [&](int u, int v) { return plane.value(u, v); }, plane.eastCracks(), plan.pixelMin,
                       plan.pixelMax + 1);
 }
 
@@ -329,7 +345,8 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
     for (int v = image.origin.y; v < image.origin.y + image.height; ++v)
         for (int u = image.origin.x; u < image.origin.x + image.width; ++u)
             if (image.inside(u, v) && !image.inside(u + 1, v)) seeds.push_back({u, v});
-    return traceLoops([&](int u, int v) { return image.inside(u, v); }, seeds, image.origin - 1,
+    return traceLoops([&](int u, int v) { return image.inside(u, v); },
+                      [&](int u, int v) { return image.value(u, v); }, seeds, image.origin - 1,
                       image.origin + glm::ivec2(image.width, image.height));
 }
 

@@ -160,8 +160,10 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             const SliceLoop& member = mLoops[s][l];
             const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
             double wApex = plane.w();
-            if (tube.hole || !findApex(plane, member.center, top ? 1.0 : -1.0, reach, wApex)) ++mStats.flatCaps;
-            (top ? tube.top : tube.bottom).apexIndex = planeToIndex(mPlan.axis, member.center, wApex);
+            TubeEnd& end = top ? tube.top : tube.bottom;
+            end.hasApex = !tube.hole && findApex(plane, member.center, top ? 1.0 : -1.0, reach, wApex);
+            end.apexIndex = planeToIndex(mPlan.axis, member.center, wApex);
+            mStats.flatCaps += end.hasApex ? 0 : 1;
         }
     }
     mStats.tubes = static_cast<int>(mTubes.size());
@@ -193,10 +195,23 @@ LevelMesh Reconstruction::buildLevel(int level) const
         if (flip) std::swap(t[1], t[2]);
         mesh.triangles.push_back(t);
     };
+    std::vector<std::uint32_t> ids;
+    // A cap fans around its apex, or lies flat over the contour when no apex was found.
+    auto emitCap = [&](const TubeEnd& end, bool top, bool flip) {
+        const std::uint32_t m = static_cast<std::uint32_t>(ids.size());
+        if (!end.hasApex) {
+            for (const Triangle& t : tileFlatCap(m, top)) emit(t, ids.data(), flip);
+            return;
+        }
+        ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
+        mesh.vertices.push_back(toWorld(end.apexIndex));
+        for (const Triangle& t : tileCap(m, top)) emit(t, ids.data(), flip);
+        ids.pop_back();
+    };
     for (const Tube& tube : mTubes) {
         // Holes wind the other way round their material; a mirroring transform flips everything.
         const bool flip = tube.hole != mirrored;
-        std::vector<std::uint32_t> previousIds, ids;
+        std::vector<std::uint32_t> previousIds;
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
             const Contour& c = contours[s][l];
@@ -211,25 +226,14 @@ LevelMesh Reconstruction::buildLevel(int level) const
                 ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
                 mesh.vertices.push_back(toWorld(planeToIndex(mPlan.axis, x.point, mPlan.positions[s])));
             }
-            if (k == 0) {
-                ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
-                mesh.vertices.push_back(toWorld(tube.bottom.apexIndex));
-                for (const Triangle& t : tileCap(static_cast<std::uint32_t>(c.crossings.size()), false))
-                    emit(t, ids.data(), flip);
-                ids.pop_back();
-            } else {
+            if (k == 0) emitCap(tube.bottom, false, flip);
+            else {
                 const auto [ps, pl] = tube.members[k - 1];
                 std::vector<std::uint32_t> both = previousIds;
                 both.insert(both.end(), ids.begin(), ids.end());
                 for (const Triangle& t : tileBand(contours[ps][pl].edges, c.edges)) emit(t, both.data(), flip);
             }
-            if (k + 1 == tube.members.size()) {
-                ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
-                mesh.vertices.push_back(toWorld(tube.top.apexIndex));
-                for (const Triangle& t : tileCap(static_cast<std::uint32_t>(c.crossings.size()), true))
-                    emit(t, ids.data(), flip);
-                ids.pop_back();
-            }
+            if (k + 1 == tube.members.size()) emitCap(tube.top, true, flip);
             previousIds = ids;
         }
     }

@@ -61,4 +61,12 @@ std::vector<Triangle> tileCap(std::uint32_t m, bool top)
     return cap;
 }
 
+std::vector<Triangle> tileFlatCap(std::uint32_t m, bool top)
+{
+    std::vector<Triangle> cap;
+    cap.reserve(m > 2 ? m - 2 : 0);
+    for (std::uint32_t i = 1; i + 1 < m; ++i) cap.push_back(top ? Triangle{0, i, i + 1} : Triangle{0, i + 1, i});
+    return cap;
+}
+
 } // namespace pipetile

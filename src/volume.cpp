@@ -90,6 +90,19 @@ GridSummary summarize(const openvdb::GridBase& grid)
     return s;
 }
 
+std::vector<GridSummary> summarizeGrids(openvdb::io::File& file, const std::string& path)
+{
+    std::vector<GridSummary> grids;
+    try {
+        const openvdb::GridPtrVecPtr metadata = file.readAllGridMetadata();
+        for (const openvdb::GridBase::Ptr& g : *metadata) grids.push_back(summarize(*g));
+    } catch (const std::exception& e) {
+        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
+                    "); the file may be truncated or damaged");
+    }
+    return grids;
+}
+
 } // namespace
 
 const char* toString(VolumeClass volumeClass)
@@ -156,29 +169,12 @@ double Volume::signedField(const glm::dvec3& world) const
     return mImpl->volumeClass == VolumeClass::LevelSet ? v - mImpl->iso : mImpl->iso - v;
 }
 
-std::vector<GridSummary> listGrids(const std::string& path)
-{
-    auto file = openFile(path);
-    std::vector<GridSummary> grids;
-    try {
-        for (const openvdb::GridBase::Ptr& g : *file->readAllGridMetadata()) grids.push_back(summarize(*g));
-    } catch (const std::exception& e) {
-        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
-                    "); the file may be truncated or damaged");
-    }
-    return grids;
-}
+std::vector<GridSummary> listGrids(const std::string& path) { return summarizeGrids(*openFile(path), path); }
 
 Volume readVolume(const std::string& path, const VolumeOptions& options)
 {
     auto file = openFile(path);
-    std::vector<GridSummary> grids;
-    try {
-        for (const openvdb::GridBase::Ptr& g : *file->readAllGridMetadata()) grids.push_back(summarize(*g));
-    } catch (const std::exception& e) {
-        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
-                    "); the file may be truncated or damaged");
-    }
+    const std::vector<GridSummary> grids = summarizeGrids(*file, path);
     if (grids.empty()) throw Error(inQuotes(path) + ": holds no grids; nothing to mesh");
 
     std::string name = options.gridName;

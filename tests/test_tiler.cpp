@@ -114,3 +114,14 @@ TEST(Tiler, CapIsAFanOfMTrianglesUsingEachContourEdgeOnce)
         EXPECT_EQ(bottom[i], (Triangle{(i + 1) % 5, i, 5}));
     }
 }
+
+TEST(Tiler, FlatCapIsAFanOfMMinusTwoTrianglesFromCrossingZero)
+{
+    // Without an apex, m crossings close with m - 2 triangles, all through crossing 0.
+    const std::vector<Triangle> top = tileFlatCap(6, true), bottom = tileFlatCap(6, false);
+    ASSERT_EQ(top.size(), 4u);
+    for (std::uint32_t i = 0; i < 4; ++i) {
+        EXPECT_EQ(top[i], (Triangle{0, i + 1, i + 2}));
+        EXPECT_EQ(bottom[i], (Triangle{0, i + 2, i + 1}));
+    }
+}

@@ -29,6 +29,10 @@ struct FieldImage {
 /// point (i - 0.5, j - 0.5), the lower-left corner of pixel (i, j). Inside pixels are 8-connected.
 struct BoundaryLoop {
     std::vector<glm::ivec2> corners; // one per unit crack, in walk order; the polygon closes
+    std::vector<glm::dvec2> points;  // per crack, the zero of the field interpolated between its
+                                     // inside and outside pixel centres: the marching-squares
+                                     // polygon of the boundary, in walk order. Rays are cut
+                                     // against it, so pixel staircases make no false folds.
     double area = 0.0;               // signed, pixels^2: > 0 counterclockwise (outer boundary),
                                      // < 0 clockwise (the boundary of a hole)
     glm::dvec2 centroid{0.0};        // area centroid of the polygon
@@ -63,7 +67,7 @@ enum class EdgeType : std::uint8_t {
 struct Crossing {
     int ray = 0;              // ray index in [0, RaySet::count())
     CrossingKind kind = CrossingKind::InOut;
-    double crackT = 0.0;      // distance from the centre to the crack the walk met: fixes order
+    double crackT = 0.0;      // distance from the centre to the loop's polygon: fixes order
     double t = 0.0;           // distance from the centre to the interpolated surface: fixes position
     glm::dvec2 point{0.0};    // in-plane position, pixel units
 };
@@ -92,9 +96,9 @@ glm::dvec2 centralPoint(const BoundaryLoop& loop);
 /// Even-odd test: does the loop's polygon enclose the point?
 bool encloses(const BoundaryLoop& loop, const glm::dvec2& point);
 
-/// Casts `rays` from `center` against the loop and classifies the edges. The crack polygon fixes
-/// which crossings exist and their order; each position is then interpolated from the field
-/// along the ray, between the neighbouring crossings of the same ray.
+/// Casts `rays` from `center` against the loop and classifies the edges. The loop's points fix
+/// which crossings exist and their order; each position is then refined to the root of the field
+/// interpolated along the ray, between the neighbouring crossings of the same ray.
 /// Returns an empty contour if the loop does not wind once around the centre.
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);

@@ -71,6 +71,7 @@ private:
         glm::dvec2 center{0.0};
     };
     struct TubeEnd {
+        bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
         glm::dvec3 apexIndex{0.0}; // index-space apex of the cap
     };
     struct Tube {

@@ -33,4 +33,8 @@ std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector
 /// `top` caps the last contour of a tube (normals toward +w); otherwise the first (toward -w).
 std::vector<Triangle> tileCap(std::uint32_t m, bool top);
 
+/// Closes a contour of m >= 3 crossings without an apex: a fan from crossing 0, m - 2 triangles.
+/// For caps whose apex was not found beyond the last slice (a tube ending inside another).
+std::vector<Triangle> tileFlatCap(std::uint32_t m, bool top);
+
 } // namespace pipetile

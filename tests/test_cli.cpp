@@ -1,0 +1,141 @@
+// End-to-end tests of the pipetile command line on generated samples and real volumes.
+#include <pipetile/mesh_io.h>
+#include <pipetile/validate.h>
+#include <pipetile/volume.h>
+
+#include "test_util.h"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+using namespace pipetile;
+using pipetile::test::runCli;
+using pipetile::test::TempDir;
+
+namespace {
+
+nlohmann::json readJson(const std::string& path)
+{
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
+}
+
+// Runs `pipetile mesh` and checks every level: written, closed, manifold, oriented, Euler 2 per
+// tube, and exactly 2 triangles per contour vertex. A tube of contours with m_k crossings has
+// sum(m_k) + 2 vertices (two cap apexes) and 2 * sum(m_k) triangles: bands give m_k + m_k+1,
+// caps m_first and m_last. At level >= 2 every vertex lies within 0.25 voxel of the level set's
+// zero. Returns the report.
+nlohmann::json meshAndCheck(const TempDir& dir, const std::string& input, const std::string& extra, int expectedTubes)
+{
+    const std::string out = dir.path("mesh.ply"), report = dir.path("report.json");
+    const test::CliResult r = runCli("mesh " + input + " -o '" + out + "' --report '" + report + "' " + extra);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    if (r.exitCode != 0) return {};
+    const nlohmann::json j = readJson(report);
+    EXPECT_EQ(j["levels"].size(), 4u);
+    EXPECT_EQ(j["statistics"]["tubes"].get<int>(), expectedTubes);
+    const Volume volume = input.empty() ? test::cachedSample("phantom") : readVolume(input);
+    for (const auto& level : j["levels"]) {
+        const int k = level["level"].get<int>();
+        SCOPED_TRACE("level " + std::to_string(k));
+        EXPECT_EQ(level["file"].get<std::string>(), dir.path("mesh_L" + std::to_string(k) + ".ply"));
+        EXPECT_EQ(level["rays"].get<int>(), 8 << k);
+        const TriangleMesh mesh = readMesh(level["file"].get<std::string>());
+        EXPECT_EQ(mesh.vertices.size(), level["vertices"].get<std::size_t>());
+        EXPECT_EQ(mesh.triangles.size(), level["triangles"].get<std::size_t>());
+        EXPECT_EQ(mesh.triangles.size(), 2 * (mesh.vertices.size() - 2 * expectedTubes));
+        const Topology topo = checkTopology(mesh);
+        EXPECT_TRUE(topo.closed() && topo.manifold() && topo.oriented() && topo.outward())
+            << topo.boundaryEdges << " boundary, " << topo.nonManifoldEdges << " non-manifold, "
+            << topo.misorientedEdges << " misoriented, volume " << topo.signedVolume;
+        EXPECT_EQ(topo.euler, 2 * expectedTubes);
+        if (k >= 2) {
+            // Files hold floats: allow their rounding (1e-7 relative of coordinates ~ 500) too.
+            EXPECT_LE(levelSetDistanceAtVertices(volume, mesh).max, 0.25 * volume.smallestVoxel() + 1e-4);
+        }
+    }
+    return j;
+}
+
+} // namespace
+
+TEST(Cli, SampleListNamesEverySample)
+{
+    const test::CliResult r = runCli("sample --list");
+    EXPECT_EQ(r.exitCode, 0);
+    for (const char* name : {"phantom", "straight", "helix", "bean", "hollow", "ybranch", "two-tubes"})
+        EXPECT_NE(r.out.find(name), std::string::npos) << name;
+}
+
+TEST(Cli, MeshesStraightSampleAsStarContours)
+{
+    // Circles are star-shaped: every contour has exactly `rays` crossings, so the triangle count
+    // is 2 * rays * contours (see test_multires for the 57 contours).
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("straight.vdb") + "'").exitCode, 0);
+    const nlohmann::json j = meshAndCheck(dir, dir.path("straight.vdb"), "", 1);
+    for (const auto& level : j["levels"]) {
+        EXPECT_EQ(level["ambiguous_contours"].get<int>(), 0);
+        EXPECT_EQ(level["triangles"].get<long long>(), 2LL * level["rays"].get<int>() * 57);
+    }
+}
+
+TEST(Cli, MeshesHelixSample)
+{
+    TempDir dir;
+    ASSERT_EQ(runCli("sample helix -o '" + dir.path("helix.vdb") + "'").exitCode, 0);
+    meshAndCheck(dir, dir.path("helix.vdb"), "", 1);
+}
+
+TEST(Cli, MeshesTheBundledPhantomByDefault)
+{
+    TempDir dir;
+    const nlohmann::json j = meshAndCheck(dir, "", "", 1);
+    EXPECT_EQ(j["input"].get<std::string>(), "sample:phantom");
+    EXPECT_EQ(j["axis"].get<std::string>(), "z");
+}
+
+TEST(Cli, MeshesTheRealAortaAlongY)
+{
+    // The aorta runs along y, with anisotropic voxels (0.879 x 0.879 x 1.5 mm). Near y = 119 it
+    // bifurcates into the iliac arteries (two cross-sections per slice below, one above). Until
+    // branching is tiled, the second iliac is a tube of its own, closed flat where it meets the
+    // trunk: two closed components, Euler characteristic 2 each.
+    TempDir dir;
+    const nlohmann::json j = meshAndCheck(dir, test::realData("vmtk_aorta_ls.vdb"), "", 2);
+    EXPECT_EQ(j["axis"].get<std::string>(), "y");
+    // Only the iliac that ends inside the trunk finds no apex beyond its last slice.
+    EXPECT_EQ(j["statistics"]["flat_caps"].get<int>(), 1);
+}
+
+TEST(Cli, MeshesTheThinRealCarotid)
+{
+    // About 5 voxels across: contours of a few pixels still tile into one closed tube.
+    TempDir dir;
+    meshAndCheck(dir, test::realData("ts_common_carotid_artery_left_ls.vdb"), "", 1);
+}
+
+TEST(Cli, MissingInputFailsWithoutOutput)
+{
+    TempDir dir;
+    const test::CliResult r = runCli("mesh /no/such.vdb -o '" + dir.path("m.ply") + "'");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("/no/such.vdb"), std::string::npos) << r.err;
+    EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(Cli, AbsurdParametersAreUsageErrors)
+{
+    TempDir dir;
+    for (const char* args : {"--rays 0", "--rays -3", "--levels 60", "--axis w", "--spacing 0"}) {
+        const test::CliResult r = runCli(std::string("mesh -o '") + dir.path("m.ply") + "' " + args);
+        EXPECT_EQ(r.exitCode, 2) << args << ": " << r.err;
+        EXPECT_FALSE(r.err.empty()) << args;
+    }
+    const test::CliResult r = runCli("mesh -o '" + dir.path("m.xyz") + "'");
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find(".ply .obj .stl .off"), std::string::npos) << r.err;
+    EXPECT_TRUE(dir.files().empty());
+}

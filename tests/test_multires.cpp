@@ -1,0 +1,139 @@
+#include <pipetile/error.h>
+#include <pipetile/multires.h>
+#include <pipetile/validate.h>
+
+#include "test_util.h"
+
+#include <cmath>
+#include <set>
+#include <tuple>
+
+using namespace pipetile;
+using pipetile::test::cachedSample;
+
+namespace {
+
+void expectClosedSphere(const TriangleMesh& mesh, int components)
+{
+    const Topology topo = checkTopology(mesh);
+    EXPECT_TRUE(topo.closed()) << topo.boundaryEdges << " boundary edges";
+    EXPECT_TRUE(topo.manifold()) << topo.nonManifoldEdges << " edges, " << topo.nonManifoldVertices << " vertices";
+    EXPECT_TRUE(topo.oriented()) << topo.misorientedEdges << " misoriented edges";
+    EXPECT_TRUE(topo.outward()) << "signed volume " << topo.signedVolume;
+    EXPECT_EQ(topo.components, components);
+    EXPECT_EQ(topo.euler, 2 * components); // each component a sphere
+}
+
+std::set<std::tuple<double, double, double>> vertexSet(const TriangleMesh& mesh)
+{
+    std::set<std::tuple<double, double, double>> s;
+    for (const glm::dvec3& p : mesh.vertices) s.insert({p.x, p.y, p.z});
+    return s;
+}
+
+} // namespace
+
+TEST(Multires, StraightCapsuleHasTheExactTriangleCount)
+{
+    // Capsule: axis (32, 32), z in [16, 112], radius 10, so the surface spans z in (6, 122). The
+    // band is active where |phi| < 3 voxels: z from 4 to 124, so slices sit at z = 4, 6, ..., 124.
+    // Slices at z = 6 and 122 touch only the tips (radius 0, nothing strictly inside), those
+    // beyond are empty, and z = 8 .. 120 (radius >= 6) each hold one circle: 57 contours.
+    // Circles are star-shaped: n crossings each. One tube of 57 contours: 2 * n * 57 triangles
+    // (two per F-edge pair in the 56 bands, n per cap) and n * 57 + 2 vertices (2 cap apexes).
+    const Volume& v = cachedSample("straight");
+    MeshOptions options;
+    options.slicing = {Axis::Auto, 2.0};
+    options.levels = 4;
+    const Reconstruction r(v, options);
+    EXPECT_EQ(r.plan().axis, 2);
+    EXPECT_EQ(r.stats().contours, 57);
+    EXPECT_EQ(r.stats().tubes, 1);
+    for (int level = 0; level < 4; ++level) {
+        const LevelMesh m = r.buildLevel(level);
+        const std::size_t n = 8u << level;
+        EXPECT_EQ(m.ambiguousContours, 0);
+        EXPECT_EQ(m.mesh.triangles.size(), 2 * n * 57);
+        EXPECT_EQ(m.mesh.vertices.size(), n * 57 + 2);
+        expectClosedSphere(m.mesh, 1);
+    }
+}
+
+TEST(Multires, VerticesLieOnTheIsosurfaceFromLevelTwo)
+{
+    // Crossings are roots of the interpolated field, and cap apexes too: within 0.25 voxel.
+    for (const char* name : {"straight", "helix"}) {
+        SCOPED_TRACE(name);
+        const Reconstruction r(cachedSample(name), MeshOptions{});
+        for (int level = 2; level < 4; ++level) {
+            const LevelMesh m = r.buildLevel(level);
+            EXPECT_LE(levelSetDistanceAtVertices(cachedSample(name), m.mesh).max, 0.25);
+            expectClosedSphere(m.mesh, 1);
+        }
+    }
+}
+
+TEST(Multires, LevelsNestBitForBit)
+{
+    // Every ray of level L is a ray of level L+1: its crossing, hence its vertex, is identical.
+    const Reconstruction r(cachedSample("helix"), MeshOptions{});
+    std::set<std::tuple<double, double, double>> previous;
+    for (int level = 0; level < 4; ++level) {
+        const auto current = vertexSet(r.buildLevel(level).mesh);
+        for (const auto& p : previous) EXPECT_EQ(current.count(p), 1u);
+        previous = current;
+    }
+}
+
+TEST(Multires, OutputDoesNotDependOnThreadCount)
+{
+    MeshOptions one, all;
+    one.threads = 1;
+    all.threads = 0;
+    const LevelMesh a = Reconstruction(cachedSample("helix"), one).buildLevel(3);
+    const LevelMesh b = Reconstruction(cachedSample("helix"), all).buildLevel(3);
+    EXPECT_EQ(a.mesh.vertices, b.mesh.vertices);
+    EXPECT_EQ(a.mesh.triangles, b.mesh.triangles);
+}
+
+TEST(Multires, TwoTubesGiveTwoClosedComponents)
+{
+    const Reconstruction r(cachedSample("two-tubes"), MeshOptions{});
+    EXPECT_EQ(r.stats().tubes, 2);
+    expectClosedSphere(r.buildLevel(2).mesh, 2);
+}
+
+TEST(Multires, BeanIsClosedAndCrossesRaysMoreThanOnce)
+{
+    // The C-shaped bean is not star-shaped from its centre: some rays cross it three times, yet
+    // every contour winds once and every level is a closed sphere.
+    const Reconstruction r(cachedSample("bean"), MeshOptions{});
+    const LevelMesh top = r.buildLevel(3);
+    EXPECT_GT(top.crossings, static_cast<long long>(top.contours) * top.rays);
+    expectClosedSphere(top.mesh, 1);
+}
+
+TEST(Multires, HollowPipeWallsAreTwoClosedSurfaces)
+{
+    // An annulus: each slice holds an outer loop and a hole loop; the hole tube's triangles turn
+    // to face the hollow. Until hollow pipes get annular end caps, each wall is its own closed
+    // component, and the enclosed volume is the outer minus the inner one (> 0).
+    const Reconstruction r(cachedSample("hollow"), MeshOptions{});
+    EXPECT_EQ(r.stats().tubes, 2);
+    EXPECT_EQ(r.stats().holes * 2, r.stats().contours);
+    expectClosedSphere(r.buildLevel(2).mesh, 2);
+}
+
+TEST(Multires, AbsurdParametersAreUsageErrors)
+{
+    MeshOptions o;
+    o.baseRays = 0;
+    EXPECT_THROW(checkMeshOptions(o), UsageError);
+    o.baseRays = 8;
+    o.levels = 60;
+    EXPECT_THROW(checkMeshOptions(o), UsageError);
+    o.levels = 14; // 8 * 2^13 = 65536 rays: the largest allowed
+    EXPECT_NO_THROW(checkMeshOptions(o));
+    o.levels = 15;
+    EXPECT_THROW(checkMeshOptions(o), UsageError);
+}

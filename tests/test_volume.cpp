@@ -1,0 +1,163 @@
+#include <pipetile/error.h>
+#include <pipetile/volume_grid.h>
+
+#include "test_util.h"
+
+#include <openvdb/io/File.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+using namespace pipetile;
+using pipetile::test::realData;
+using pipetile::test::TempDir;
+
+namespace {
+
+// Writes grids to a .vdb file with OpenVDB itself.
+void writeGrids(const std::string& path, const openvdb::GridPtrVec& grids)
+{
+    openvdb::initialize();
+    openvdb::io::File file(path);
+    file.write(grids);
+    file.close();
+}
+
+openvdb::FloatGrid::Ptr smallLevelSet(float background = 3.0f)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(background);
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    grid->setName("ls");
+    auto acc = grid->getAccessor();
+    for (int i = -4; i <= 4; ++i)
+        for (int j = -4; j <= 4; ++j)
+            for (int k = -4; k <= 4; ++k)
+                acc.setValue(openvdb::Coord(i, j, k), static_cast<float>(std::sqrt(i * i + j * j + k * k) - 2.5));
+    return grid;
+}
+
+std::string messageOf(const std::function<void()>& f)
+{
+    try {
+        f();
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+} // namespace
+
+TEST(Volume, ReadsHalfFloatLevelSetWrittenByHoudini)
+{
+    // gaffer_sphere_levelset.vdb stores half floats; OpenVDB widens them to float on read.
+    const Volume v = readVolume(realData("gaffer_sphere_levelset.vdb"));
+    EXPECT_EQ(v.gridName(), "ls_sphere");
+    EXPECT_EQ(v.volumeClass(), VolumeClass::LevelSet);
+    EXPECT_EQ(v.iso(), 0.0);
+    EXPECT_NEAR(v.smallestVoxel(), 0.05, 1e-9); // the data README's voxel size
+}
+
+TEST(Volume, BloscFogDefaultIsoIsHalfwayFromBackgroundToMax)
+{
+    // Background 0 and densest value 1 (vdb_print): the documented default isovalue is 0.5.
+    const Volume v = readVolume(realData("gaffer_sphere_density_fog.vdb"));
+    EXPECT_EQ(v.volumeClass(), VolumeClass::Fog);
+    EXPECT_NEAR(v.iso(), 0.5, 1e-6);
+}
+
+TEST(Volume, ConeFogDefaultIsoIsMinusFiveHundred)
+{
+    // Background -1000 (air), tissue 0: halfway is -500, the isovalue the data README gives.
+    const Volume v = readVolume(realData("cip_cone_vessel_density.vdb"));
+    EXPECT_EQ(v.volumeClass(), VolumeClass::Fog);
+    EXPECT_DOUBLE_EQ(v.iso(), -500.0);
+    EXPECT_LT(v.signedField(v.indexToWorld({25, 25, 180})), 0.0); // on the cone's axis: inside
+}
+
+TEST(Volume, KeepsAnisotropicVoxelsOfTheAorta)
+{
+    const Volume v = readVolume(realData("vmtk_aorta_ls.vdb"));
+    EXPECT_NEAR(v.voxelSize().x, 0.879, 0.001);
+    EXPECT_NEAR(v.voxelSize().y, 0.879, 0.001);
+    EXPECT_NEAR(v.voxelSize().z, 1.5, 0.001);
+    EXPECT_NEAR(v.smallestVoxel(), v.voxelSize().x, 1e-12);
+    EXPECT_FALSE(v.mirrored());
+}
+
+TEST(Volume, MissingFileIsNamed)
+{
+    const std::string msg = messageOf([] { readVolume("/nonexistent/vessel.vdb"); });
+    EXPECT_NE(msg.find("/nonexistent/vessel.vdb"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("no such file"), std::string::npos) << msg;
+}
+
+TEST(Volume, TextFileNamedVdbIsRefused)
+{
+    TempDir dir;
+    std::ofstream(dir.path("notes.vdb")) << "these are notes, not voxels\n";
+    const std::string msg = messageOf([&] { readVolume(dir.path("notes.vdb")); });
+    EXPECT_NE(msg.find("not a readable VDB file"), std::string::npos) << msg;
+}
+
+TEST(Volume, TruncatedFileIsRefused)
+{
+    TempDir dir;
+    std::ifstream in(realData("vmtk_aorta_ls.vdb"), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir.path("cut.vdb"), std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    const std::string msg = messageOf([&] { readVolume(dir.path("cut.vdb")); });
+    EXPECT_NE(msg.find("cut.vdb"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("levelset"), std::string::npos) << msg; // the grid that could not be read
+}
+
+TEST(Volume, UnknownGridNameListsTheGrids)
+{
+    const std::string msg = messageOf([] { readVolume(realData("vmtk_aorta_ls.vdb"), {"density", {}}); });
+    EXPECT_NE(msg.find("no grid named 'density'"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("'levelset' (float)"), std::string::npos) << msg;
+}
+
+TEST(Volume, VectorGridIsRefusedWithItsType)
+{
+    TempDir dir;
+    auto velocity = openvdb::Vec3SGrid::create();
+    velocity->setName("v");
+    velocity->tree().setValue(openvdb::Coord(0), openvdb::Vec3s(1, 0, 0));
+    writeGrids(dir.path("vel.vdb"), {velocity});
+    EXPECT_NE(messageOf([&] { readVolume(dir.path("vel.vdb")); }).find("no scalar float grid"), std::string::npos);
+    EXPECT_NE(messageOf([&] { readVolume(dir.path("vel.vdb"), {"v", {}}); }).find("vec3s"), std::string::npos);
+}
+
+TEST(Volume, EmptyGridIsRefused)
+{
+    auto grid = openvdb::FloatGrid::create(3.0f);
+    grid->setName("empty");
+    EXPECT_NE(messageOf([&] { volumeFromGrid(grid, {}, "mem"); }).find("empty"), std::string::npos);
+}
+
+TEST(Volume, NonFiniteValuesAreRefused)
+{
+    auto grid = smallLevelSet();
+    grid->tree().setValue(openvdb::Coord(1, 1, 1), std::numeric_limits<float>::quiet_NaN());
+    grid->tree().setValue(openvdb::Coord(1, 2, 1), std::numeric_limits<float>::infinity());
+    EXPECT_NE(messageOf([&] { volumeFromGrid(grid, {}, "mem"); }).find("2 NaN or infinite"), std::string::npos);
+}
+
+TEST(Volume, IsovalueOutsideTheRangeGivesTheRange)
+{
+    // smallLevelSet holds |p| - 2.5 on [-4, 4]^3: from -2.5 at the centre to sqrt(48) - 2.5 =
+    // 4.4282 at the corners.
+    const std::string msg = messageOf([&] { volumeFromGrid(smallLevelSet(), {"", 7.0}, "mem"); });
+    EXPECT_NE(msg.find("crosses nothing"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("-2.5 to 4.4282"), std::string::npos) << msg;
+}
+
+TEST(Volume, BackgroundInsideTheSurfaceIsRefused)
+{
+    // A level set whose background is negative encloses all of space: no bounded object.
+    auto grid = smallLevelSet(-3.0f);
+    EXPECT_NE(messageOf([&] { volumeFromGrid(grid, {"", 0.0}, "mem"); }).find("unbounded"), std::string::npos);
+}

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages pipetile needs, builds it, and runs the demo or the test suite.
+#   bash tools/dev.sh demo   # mesh the bundled phantom into out/
+#   bash tools/dev.sh test   # the whole test suite (what CI runs)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libglm-dev
+          libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libmeshoptimizer-dev
+          libopenvdb-tools)
+if ! dpkg -s "${packages[@]}" >/dev/null 2>&1; then
+  sudo=""; [ "$(id -u)" = 0 ] || sudo=sudo
+  $sudo apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q "${packages[@]}"
+fi
+
+build=${PIPETILE_BUILD_DIR:-build}
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+case "${1:-demo}" in
+  demo)
+    cmake --build "$build" -j2 --target pipetile_cli
+    mkdir -p out
+    "$build/pipetile" mesh -o out/phantom.ply --report out/report.json
+    ;;
+  test)
+    cmake --build "$build" -j2
+    ctest --test-dir "$build" --output-on-failure -j2
+    ;;
+  *) echo "usage: bash tools/dev.sh demo|test" >&2; exit 2 ;;
+esac
