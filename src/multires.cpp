@@ -163,9 +163,17 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             TubeEnd& end = top ? tube.top : tube.bottom;
             end.hasApex = !tube.hole && findApex(plane, member.center, top ? 1.0 : -1.0, reach, wApex);
             end.apexIndex = planeToIndex(mPlan.axis, member.center, wApex);
-            mStats.flatCaps += end.hasApex ? 0 : 1;
         }
     }
+    // A lone contour with no apex on either side would be closed by the same flat fan twice:
+    // it encloses nothing, so it is dropped (and counted) rather than meshed as a flat pillow.
+    const auto pillow = [](const Tube& t) { return t.members.size() == 1 && !t.bottom.hasApex && !t.top.hasApex; };
+    mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
+    mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
+    if (mTubes.empty())
+        throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
+                    "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
+    for (const Tube& tube : mTubes) mStats.flatCaps += (tube.bottom.hasApex ? 0 : 1) + (tube.top.hasApex ? 0 : 1);
     mStats.tubes = static_cast<int>(mTubes.size());
     mStats.seconds = secondsSince(start);
 }

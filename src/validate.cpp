@@ -2,11 +2,18 @@
 
 #include <pipetile/error.h>
 #include <pipetile/validate.h>
+#include <pipetile/volume_grid.h>
 
 #include <glm/geometric.hpp>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace pipetile {
@@ -111,6 +118,349 @@ DistanceStats levelSetDistanceAtVertices(const Volume& volume, const TriangleMes
         stats.rms = std::sqrt(sum2 / stats.samples);
     }
     return stats;
+}
+
+TriangleQuality measureQuality(const TriangleMesh& mesh)
+{
+    TriangleQuality q;
+    q.smallestAngle = 180.0;
+    constexpr double kDegrees = 57.295779513082320876798154814105;
+    for (const Triangle& t : mesh.triangles) {
+        const glm::dvec3 &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+        const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+        q.area += area;
+        const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
+        const double longest = std::max(la, std::max(lb, lc));
+        if (!(area > 1e-12 * longest * longest)) {
+            ++q.degenerate;
+            continue;
+        }
+        // The smallest angle faces the shortest edge; the law of cosines, clamped for rounding.
+        auto angle = [](double opposite, double x, double y) {
+            return std::acos(std::clamp((x * x + y * y - opposite * opposite) / (2.0 * x * y), -1.0, 1.0));
+        };
+        const double smallest = std::min(angle(la, lb, lc), std::min(angle(lb, lc, la), angle(lc, la, lb)));
+        q.smallestAngle = std::min(q.smallestAngle, smallest * kDegrees);
+        const double altitude = 2.0 * area / longest;
+        q.largestAspect = std::max(q.largestAspect, longest / altitude * (std::sqrt(3.0) / 2.0));
+    }
+    if (mesh.triangles.empty()) q.smallestAngle = 0.0;
+    return q;
+}
+
+SurfaceSamples sampleSurface(const TriangleMesh& mesh, double spacing)
+{
+    SurfaceSamples s;
+    s.points = mesh.vertices;
+    s.weights.assign(mesh.vertices.size(), 0.0);
+    for (const Triangle& t : mesh.triangles) {
+        const glm::dvec3 &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+        const double longest = std::max(glm::length(b - a), std::max(glm::length(c - b), glm::length(a - c)));
+        const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+        // About one sample per spacing^2 of area, and at least one per 4 spacings along the longest
+        // edge so that long thin triangles are not sampled at their centre alone.
+        const double divisions = std::max(std::sqrt(2.0 * area), 0.25 * longest) / spacing;
+        const int k = std::max(1, std::min(1024, static_cast<int>(std::ceil(divisions))));
+        const double part = area / (static_cast<double>(k) * k);
+        // Centroids of the k^2 sub-triangles: (i + 1/3, j + 1/3) upright, (i + 2/3, j + 2/3) inverted.
+        for (int i = 0; i < k; ++i)
+            for (int j = 0; i + j < k; ++j) {
+                for (int inverted = 0; inverted < (i + j + 1 < k ? 2 : 1); ++inverted) {
+                    const double u = (i + (inverted ? 2.0 : 1.0) / 3.0) / k, v = (j + (inverted ? 2.0 : 1.0) / 3.0) / k;
+                    s.points.push_back(a + u * (b - a) + v * (c - a));
+                    s.weights.push_back(part);
+                }
+            }
+    }
+    return s;
+}
+
+TriangleMesh isosurface(const Volume& volume, double adaptivity, double* seconds)
+{
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> triangles;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(gridOf(volume), points, triangles, quads, volume.iso(), adaptivity);
+    TriangleMesh mesh;
+    mesh.vertices.reserve(points.size());
+    for (const openvdb::Vec3s& p : points) mesh.vertices.push_back(glm::dvec3(p.x(), p.y(), p.z()));
+    mesh.triangles.reserve(triangles.size() + 2 * quads.size());
+    for (const openvdb::Vec3I& t : triangles) mesh.triangles.push_back({t[0], t[1], t[2]});
+    for (const openvdb::Vec4I& q : quads) {
+        mesh.triangles.push_back({q[0], q[1], q[2]});
+        mesh.triangles.push_back({q[0], q[2], q[3]});
+    }
+    if (seconds) *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return mesh;
+}
+
+std::vector<glm::dvec3> errorColors(const std::vector<double>& distances, double redAt)
+{
+    // blue -> green -> yellow -> red, evenly over [0, redAt].
+    static const glm::dvec3 kStops[4] = {{0.1, 0.2, 1.0}, {0.1, 0.8, 0.2}, {1.0, 0.9, 0.1}, {1.0, 0.1, 0.1}};
+    std::vector<glm::dvec3> colors;
+    colors.reserve(distances.size());
+    for (double d : distances) {
+        const double x = std::clamp(redAt > 0.0 ? d / redAt : 1.0, 0.0, 1.0) * 3.0;
+        const int i = std::min(2, static_cast<int>(x));
+        colors.push_back(kStops[i] + (x - i) * (kStops[i + 1] - kStops[i]));
+    }
+    return colors;
+}
+
+namespace {
+
+// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) return a;
+    const glm::dvec3 bp = p - b;
+    const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) return b;
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
+    const glm::dvec3 cp = p - c;
+    const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) return c;
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    const double denom = 1.0 / (va + vb + vc);
+    return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+// A bounding-volume hierarchy over the triangles of a mesh, for exact nearest-triangle queries.
+class TriangleBvh {
+public:
+    explicit TriangleBvh(const TriangleMesh& mesh) : mMesh(&mesh)
+    {
+        const std::size_t n = mesh.triangles.size();
+        mOrder.resize(n);
+        std::iota(mOrder.begin(), mOrder.end(), 0u);
+        mCentroids.resize(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            const Triangle& t = mesh.triangles[i];
+            mCentroids[i] = (mesh.vertices[t[0]] + mesh.vertices[t[1]] + mesh.vertices[t[2]]) / 3.0;
+        }
+        if (n > 0) {
+            mNodes.reserve(2 * (n / 2 + 1));
+            mNodes.resize(1);
+            build(0, 0, static_cast<std::uint32_t>(n));
+        }
+    }
+
+    /// Distance from p to the nearest triangle.
+    double distance(const glm::dvec3& p) const
+    {
+        double best2 = std::numeric_limits<double>::infinity();
+        if (mNodes.empty()) return best2;
+        std::uint32_t stack[128]; // depth is log2(n / 4) + 1; each level adds at most one entry
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& node = mNodes[stack[--top]];
+            if (boxDistance2(node, p) >= best2) continue;
+            if (node.count > 0) {
+                for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+                    const Triangle& t = mMesh->triangles[mOrder[k]];
+                    const glm::dvec3 q = closestOnTriangle(p, mMesh->vertices[t[0]], mMesh->vertices[t[1]], mMesh->vertices[t[2]]);
+                    best2 = std::min(best2, glm::dot(p - q, p - q));
+                }
+                continue;
+            }
+            // Visit the nearer child first: it tightens the bound sooner.
+            const std::uint32_t l = node.first, r = node.first + 1;
+            const bool leftFirst = boxDistance2(mNodes[l], p) <= boxDistance2(mNodes[r], p);
+            stack[top++] = leftFirst ? r : l;
+            stack[top++] = leftFirst ? l : r;
+        }
+        return std::sqrt(best2);
+    }
+
+private:
+    struct Node {
+        glm::dvec3 lo, hi;
+        std::uint32_t first = 0; // leaf: first index into mOrder; inner: index of the left child
+        std::uint32_t count = 0; // triangles in a leaf, 0 for an inner node
+    };
+
+    static double boxDistance2(const Node& n, const glm::dvec3& p)
+    {
+        const glm::dvec3 d = glm::max(glm::max(n.lo - p, p - n.hi), glm::dvec3(0.0));
+        return glm::dot(d, d);
+    }
+
+    // Fills node `index` (already allocated) for triangles [begin, end); children are allocated
+    // next to each other, so an inner node needs only the index of its left child.
+    void build(std::uint32_t index, std::uint32_t begin, std::uint32_t end)
+    {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        glm::dvec3 clo = lo, chi = hi;
+        for (std::uint32_t k = begin; k < end; ++k) {
+            for (std::uint32_t v : mMesh->triangles[mOrder[k]]) {
+                lo = glm::min(lo, mMesh->vertices[v]);
+                hi = glm::max(hi, mMesh->vertices[v]);
+            }
+            clo = glm::min(clo, mCentroids[mOrder[k]]);
+            chi = glm::max(chi, mCentroids[mOrder[k]]);
+        }
+        mNodes[index].lo = lo;
+        mNodes[index].hi = hi;
+        if (end - begin <= 4) {
+            mNodes[index].first = begin;
+            mNodes[index].count = end - begin;
+            return;
+        }
+        const glm::dvec3 extent = chi - clo;
+        const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+        const std::uint32_t mid = begin + (end - begin) / 2;
+        std::nth_element(mOrder.begin() + begin, mOrder.begin() + mid, mOrder.begin() + end,
+                         [&](std::uint32_t a, std::uint32_t b) { return mCentroids[a][axis] < mCentroids[b][axis]; });
+        const std::uint32_t children = static_cast<std::uint32_t>(mNodes.size());
+        mNodes.resize(mNodes.size() + 2);
+        mNodes[index].first = children;
+        build(children, begin, mid);
+        build(children + 1, mid, end);
+    }
+
+    const TriangleMesh* mMesh;
+    std::vector<std::uint32_t> mOrder;
+    std::vector<glm::dvec3> mCentroids;
+    std::vector<Node> mNodes;
+};
+
+// Distances from weighted samples to a mesh, in parallel; the reduction runs in sample order, so
+// the result does not depend on the thread count.
+DistanceStats distancesTo(const TriangleBvh& target, const SurfaceSamples& samples, int threads,
+                          std::vector<double>* perSample = nullptr)
+{
+    std::vector<double> d(samples.points.size());
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, d.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t i = r.begin(); i < r.end(); ++i) d[i] = target.distance(samples.points[i]);
+        });
+    });
+    DistanceStats stats;
+    double weight = 0.0, sum = 0.0, sum2 = 0.0;
+    for (std::size_t i = 0; i < d.size(); ++i) {
+        stats.max = std::max(stats.max, d[i]);
+        weight += samples.weights[i];
+        sum += samples.weights[i] * d[i];
+        sum2 += samples.weights[i] * d[i] * d[i];
+    }
+    stats.samples = static_cast<long long>(d.size());
+    if (weight > 0.0) {
+        stats.mean = sum / weight;
+        stats.rms = std::sqrt(sum2 / weight);
+    }
+    if (perSample) *perSample = std::move(d);
+    return stats;
+}
+
+double totalWeight(const SurfaceSamples& s) { return std::accumulate(s.weights.begin(), s.weights.end(), 0.0); }
+
+} // namespace
+
+struct Validator::Impl {
+    Volume volume;
+    ValidationOptions options;
+    TriangleMesh reference;
+    double referenceSeconds = 0.0;
+    std::unique_ptr<TriangleBvh> referenceBvh;
+    SurfaceSamples referenceSamples;
+    double referenceArea = 0.0, referenceVolume = 0.0;
+};
+
+Validator::Validator(const Volume& volume, const ValidationOptions& options) : mImpl(std::make_unique<Impl>())
+{
+    mImpl->volume = volume;
+    mImpl->options = options;
+    mImpl->reference = isosurface(volume, 0.0, &mImpl->referenceSeconds);
+    mImpl->referenceBvh = std::make_unique<TriangleBvh>(mImpl->reference);
+    mImpl->referenceSamples = sampleSurface(mImpl->reference, options.sampleSpacingVoxels * volume.smallestVoxel());
+    mImpl->referenceArea = totalWeight(mImpl->referenceSamples);
+    // Fog volumes come out of volumeToMesh inside out: the enclosed volume is the magnitude.
+    double volume6 = 0.0;
+    for (const Triangle& t : mImpl->reference.triangles) {
+        const glm::dvec3 &p = mImpl->reference.vertices[t[0]], &q = mImpl->reference.vertices[t[1]],
+                         &r = mImpl->reference.vertices[t[2]];
+        volume6 += glm::dot(p, glm::cross(q, r));
+    }
+    mImpl->referenceVolume = std::abs(volume6) / 6.0;
+}
+
+Validator::~Validator() = default;
+
+const TriangleMesh& Validator::reference() const { return mImpl->reference; }
+double Validator::referenceSeconds() const { return mImpl->referenceSeconds; }
+
+Validation Validator::validate(const TriangleMesh& mesh) const
+{
+    if (mesh.triangles.empty()) throw Error("the mesh has no triangles; nothing to validate");
+    const auto start = std::chrono::steady_clock::now();
+    const Volume& volume = mImpl->volume;
+    Validation v;
+    v.voxel = volume.smallestVoxel();
+    v.topology = checkTopology(mesh);
+    v.quality = measureQuality(mesh);
+    v.referenceArea = mImpl->referenceArea;
+    v.referenceVolume = mImpl->referenceVolume;
+    v.referenceTriangles = static_cast<long long>(mImpl->reference.triangles.size());
+    v.referenceSeconds = mImpl->referenceSeconds;
+
+    const SurfaceSamples samples = sampleSurface(mesh, mImpl->options.sampleSpacingVoxels * v.voxel);
+    std::vector<double> perSample;
+    v.meshToReference = distancesTo(*mImpl->referenceBvh, samples, mImpl->options.threads, &perSample);
+    v.vertexDistance.assign(perSample.begin(), perSample.begin() + static_cast<std::ptrdiff_t>(mesh.vertices.size()));
+    if (!mImpl->reference.triangles.empty()) {
+        const TriangleBvh meshBvh(mesh);
+        v.referenceToMesh = distancesTo(meshBvh, mImpl->referenceSamples, mImpl->options.threads);
+    }
+    // Symmetric: the larger maximum; mean and RMS over both sample sets, weighted by area.
+    const double wa = totalWeight(samples), wb = totalWeight(mImpl->referenceSamples);
+    v.symmetric.max = std::max(v.meshToReference.max, v.referenceToMesh.max);
+    v.symmetric.samples = v.meshToReference.samples + v.referenceToMesh.samples;
+    if (wa + wb > 0.0) {
+        v.symmetric.mean = (wa * v.meshToReference.mean + wb * v.referenceToMesh.mean) / (wa + wb);
+        v.symmetric.rms = std::sqrt((wa * v.meshToReference.rms * v.meshToReference.rms +
+                                     wb * v.referenceToMesh.rms * v.referenceToMesh.rms) / (wa + wb));
+    }
+    if (volume.volumeClass() == VolumeClass::LevelSet) {
+        v.hasLevelSet = true;
+        // |value - iso| at each sample, read through one accessor per task.
+        std::vector<double> phi(samples.points.size());
+        tbb::task_arena arena(mImpl->options.threads > 0 ? mImpl->options.threads : tbb::task_arena::automatic);
+        arena.execute([&] {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, phi.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+                const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> sampler(
+                    gridOf(volume).getConstAccessor(), gridOf(volume).transform());
+                for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                    const glm::dvec3& p = samples.points[i];
+                    phi[i] = std::abs(sampler.wsSample(openvdb::Vec3d(p.x, p.y, p.z)) - volume.iso());
+                }
+            });
+        });
+        double weight = 0.0, sum = 0.0, sum2 = 0.0;
+        for (std::size_t i = 0; i < samples.points.size(); ++i) {
+            const double d = phi[i];
+            v.levelSet.max = std::max(v.levelSet.max, d);
+            weight += samples.weights[i];
+            sum += samples.weights[i] * d;
+            sum2 += samples.weights[i] * d * d;
+        }
+        v.levelSet.samples = static_cast<long long>(samples.points.size());
+        if (weight > 0.0) {
+            v.levelSet.mean = sum / weight;
+            v.levelSet.rms = std::sqrt(sum2 / weight);
+        }
+    }
+    v.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return v;
 }
 
 } // namespace pipetile

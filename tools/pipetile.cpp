@@ -44,6 +44,53 @@ std::string levelPath(const std::string& output, int level)
     return name.string();
 }
 
+json distanceJson(const pipetile::DistanceStats& d, double voxel)
+{
+    return {{"max", d.max}, {"mean", d.mean}, {"rms", d.rms}, {"max_voxels", d.max / voxel},
+            {"mean_voxels", d.mean / voxel}, {"rms_voxels", d.rms / voxel}, {"samples", d.samples}};
+}
+
+// The report's validation block (DESIGN.md): distances in world units, plus the same in voxels.
+json validationJson(const pipetile::Validation& v)
+{
+    const pipetile::Topology& t = v.topology;
+    json j = {
+        {"hausdorff", v.symmetric.max}, {"mean", v.symmetric.mean}, {"rms", v.symmetric.rms}, {"voxel", v.voxel},
+        {"hausdorff_voxels", v.symmetric.max / v.voxel}, {"mean_voxels", v.symmetric.mean / v.voxel},
+        {"rms_voxels", v.symmetric.rms / v.voxel},
+        {"mesh_to_reference", distanceJson(v.meshToReference, v.voxel)},
+        {"reference_to_mesh", distanceJson(v.referenceToMesh, v.voxel)},
+        {"closed", t.closed()}, {"manifold", t.manifold()}, {"oriented", t.oriented()}, {"outward", t.outward()},
+        {"euler", t.euler}, {"components", t.components}, {"boundary_edges", t.boundaryEdges},
+        {"non_manifold_edges", t.nonManifoldEdges}, {"non_manifold_vertices", t.nonManifoldVertices},
+        {"misoriented_edges", t.misorientedEdges},
+        {"area", v.quality.area}, {"reference_area", v.referenceArea},
+        {"volume", t.signedVolume}, {"reference_volume", v.referenceVolume},
+        {"smallest_angle", v.quality.smallestAngle}, {"largest_aspect", v.quality.largestAspect},
+        {"degenerate_triangles", v.quality.degenerate},
+        {"reference_triangles", v.referenceTriangles}, {"reference_seconds", v.referenceSeconds},
+        {"seconds", v.seconds},
+    };
+    if (v.hasLevelSet) j["level_set"] = distanceJson(v.levelSet, v.voxel);
+    return j;
+}
+
+void printValidationHeader()
+{
+    std::printf("%-8s %10s %8s %8s %8s  %-6s %-8s %-8s %5s %9s\n", "", "hausdorff", "mean", "rms", "|phi|max",
+                "closed", "manifold", "oriented", "euler", "min angle");
+}
+
+void printValidationRow(const std::string& label, const pipetile::Validation& v)
+{
+    const pipetile::Topology& t = v.topology;
+    const std::string phi = v.hasLevelSet ? std::to_string(v.levelSet.max / v.voxel).substr(0, 6) : "-";
+    std::printf("%-8s %10.3f %8.3f %8.3f %8s  %-6s %-8s %-8s %5lld %8.1f°   (voxels of %g)\n", label.c_str(),
+                v.symmetric.max / v.voxel, v.symmetric.mean / v.voxel, v.symmetric.rms / v.voxel, phi.c_str(),
+                t.closed() ? "yes" : "NO", t.manifold() ? "yes" : "NO", t.oriented() && t.outward() ? "yes" : "NO",
+                t.euler, v.quality.smallestAngle, v.voxel);
+}
+
 void checkWritableTarget(const std::string& path, const char* what)
 {
     const std::filesystem::path folder = std::filesystem::path(path).parent_path();
@@ -59,6 +106,7 @@ struct MeshArgs {
     std::string axis = "auto";
     double spacing = 2.0;
     int rays = 8, levels = 4, threads = 0;
+    bool validate = false;
 };
 
 int runMesh(const MeshArgs& args)
@@ -118,7 +166,8 @@ int runMesh(const MeshArgs& args)
         {"slices", stats.slices},
         {"statistics", {{"empty_slices", stats.emptySlices}, {"contours", stats.contours}, {"holes", stats.holes},
                         {"tubes", stats.tubes}, {"dropped_small_contours", stats.droppedSmall},
-                        {"dropped_unwound_contours", stats.droppedUnwound}, {"flat_caps", stats.flatCaps},
+                        {"dropped_unwound_contours", stats.droppedUnwound},
+                        {"dropped_flat_contours", stats.droppedFlat}, {"flat_caps", stats.flatCaps},
                         {"seconds", stats.seconds}}},
         {"levels", json::array()},
     };
@@ -143,7 +192,60 @@ int runMesh(const MeshArgs& args)
                     level.mesh.triangles.size(), level.seconds, written[k].c_str());
     }
     report["seconds"] = secondsSince(start);
+    if (args.validate) {
+        // One reference isosurface for all levels; its time is the same-run peer of ours.
+        const pipetile::Validator validator(volume, {1.0, args.threads});
+        std::printf("\nvalidation against volumeToMesh (%zu triangles, %.4f s):\n", validator.reference().triangles.size(),
+                    validator.referenceSeconds());
+        printValidationHeader();
+        for (std::size_t k = 0; k < levels.size(); ++k) {
+            const pipetile::Validation v = validator.validate(levels[k].mesh);
+            report["levels"][k]["validation"] = validationJson(v);
+            printValidationRow("L" + std::to_string(levels[k].level), v);
+        }
+    }
     if (!args.report.empty()) writeJson(report, args.report);
+    return 0;
+}
+
+struct ValidateArgs {
+    std::string input, mesh, grid, report, colors;
+    std::optional<double> iso;
+    int threads = 0;
+};
+
+int runValidate(const ValidateArgs& args)
+{
+    if (!args.report.empty()) checkWritableTarget(args.report, "report");
+    if (!args.colors.empty()) {
+        if (std::filesystem::path(args.colors).extension() != ".ply")
+            throw pipetile::UsageError("--error-colors '" + args.colors + "': the coloured mesh is written as .ply");
+        checkWritableTarget(args.colors, "coloured mesh");
+    }
+    pipetile::VolumeOptions volumeOptions;
+    volumeOptions.gridName = args.grid;
+    volumeOptions.iso = args.iso;
+    const pipetile::Volume volume = pipetile::readVolume(args.input, volumeOptions);
+    const pipetile::TriangleMesh mesh = pipetile::readMesh(args.mesh);
+    const pipetile::Validator validator(volume, {1.0, args.threads});
+    const pipetile::Validation v = validator.validate(mesh);
+    std::printf("%s against the isosurface of %s, grid '%s' at iso %g (volumeToMesh: %zu triangles, %.4f s)\n",
+                args.mesh.c_str(), args.input.c_str(), volume.gridName().c_str(), volume.iso(),
+                validator.reference().triangles.size(), validator.referenceSeconds());
+    printValidationHeader();
+    printValidationRow("mesh", v);
+    if (!args.colors.empty()) {
+        pipetile::MeshWriteOptions options;
+        options.colors = pipetile::errorColors(v.vertexDistance, v.voxel);
+        pipetile::writeMesh(mesh, args.colors, options);
+        std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
+    }
+    if (!args.report.empty()) {
+        json report = {{"input", args.input}, {"grid", volume.gridName()}, {"iso", volume.iso()}, {"mesh", args.mesh},
+                       {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
+                       {"validation", validationJson(v)}};
+        writeJson(report, args.report);
+    }
     return 0;
 }
 
@@ -192,6 +294,17 @@ int main(int argc, char** argv)
     mesh->add_option("--levels", meshArgs.levels, "levels of detail")->check(CLI::Range(1, 16));
     mesh->add_option("--report", meshArgs.report, "write a JSON report");
     mesh->add_option("--threads", meshArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
+    mesh->add_flag("--validate", meshArgs.validate, "compare every level with volumeToMesh's isosurface");
+
+    ValidateArgs validateArgs;
+    CLI::App* validate = app.add_subcommand("validate", "Compare any mesh with the isosurface of a .vdb volume");
+    validate->add_option("INPUT", validateArgs.input, "input .vdb file")->required();
+    validate->add_option("MESH", validateArgs.mesh, "mesh file (.ply .obj .stl .off), from pipetile or any tool")->required();
+    validate->add_option("--grid", validateArgs.grid, "grid name (default: the first float grid)");
+    validate->add_option("--iso", validateArgs.iso, "isovalue (default as for mesh)");
+    validate->add_option("--report", validateArgs.report, "write a JSON report");
+    validate->add_option("--error-colors", validateArgs.colors, "write the mesh as .ply coloured by its distance");
+    validate->add_option("--threads", validateArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
     std::string sampleName, sampleOutput;
     bool sampleList = false;
@@ -217,6 +330,7 @@ int main(int argc, char** argv)
 
     try {
         if (mesh->parsed()) return runMesh(meshArgs);
+        if (validate->parsed()) return runValidate(validateArgs);
         if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);
         if (info->parsed()) return runInfo(infoInput);
     } catch (const pipetile::UsageError& e) {

@@ -22,7 +22,8 @@ struct MeshOptions {
     SliceOptions slicing;          // axis and spacing of the slices
     int baseRays = 8;              // n0: rays at level 0, in [3, 4096]
     int levels = 4;                // levels of detail: 0 .. levels-1, in [1, 16]
-    double minContourArea = 4.0;   // pixels^2: smaller cross-sections are dropped (and counted)
+    double minContourArea = 1.0;   // pixels^2: smaller cross-sections (below one pixel) are dropped
+                                   // (and counted)
     int threads = 0;               // 0: all cores; results do not depend on it
 };
 
@@ -46,6 +47,7 @@ struct ReconstructionStats {
     int holes = 0;                 // of which bound a hole (inner walls of hollow pipes)
     int droppedSmall = 0;          // cross-sections below minContourArea
     int droppedUnwound = 0;        // loops that do not wind around their central point
+    int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
     int tubes = 0;                 // chains of corresponding contours, each closed by two caps
     int flatCaps = 0;              // caps whose apex was not found past the last slice
     double seconds = 0.0;          // slicing, boundary walks and correspondence

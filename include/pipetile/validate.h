@@ -1,8 +1,12 @@
-// pipetile — validate: checks of a mesh on its own (topology) and against the volume it came from.
+// pipetile — validate: checks of a mesh on its own (topology, quality) and against the isosurface of
+// the volume it came from (openvdb::tools::volumeToMesh, adaptivity 0, quads split).
 #pragma once
 
 #include <pipetile/mesh_io.h>
 #include <pipetile/volume.h>
+
+#include <memory>
+#include <vector>
 
 namespace pipetile {
 
@@ -26,7 +30,8 @@ struct Topology {
 
 Topology checkTopology(const TriangleMesh& mesh);
 
-/// Distance statistics, world units.
+/// Distance statistics, world units. Mean and RMS are weighted by the surface area each sample
+/// stands for; the maximum also covers every vertex.
 struct DistanceStats {
     double max = 0.0;
     double mean = 0.0;
@@ -34,8 +39,79 @@ struct DistanceStats {
     long long samples = 0;
 };
 
+/// Shape of the triangles.
+struct TriangleQuality {
+    double area = 0.0;             // world units^2
+    double smallestAngle = 0.0;    // degrees, over non-degenerate triangles
+    double largestAspect = 0.0;    // longest edge / shortest altitude * sqrt(3)/2: 1 for equilateral
+    long long degenerate = 0;      // area below 1e-12 of the longest edge squared
+};
+
+TriangleQuality measureQuality(const TriangleMesh& mesh);
+
+/// Points on a mesh standing for its surface: every vertex (weight 0), and the centroids of a
+/// regular subdivision of each triangle into k^2 parts, k = ceil(max(sqrt(2 area), longest edge
+/// / 4) / spacing), each weighted by its part's area (about one sample per spacing^2). Deterministic.
+struct SurfaceSamples {
+    std::vector<glm::dvec3> points;
+    std::vector<double> weights;
+};
+SurfaceSamples sampleSurface(const TriangleMesh& mesh, double spacing);
+
 /// |signed field| of a level set at every vertex: the level set's own distance to its surface.
 /// @throw Error if the volume is not a level set (a fog value is no distance).
 DistanceStats levelSetDistanceAtVertices(const Volume& volume, const TriangleMesh& mesh);
+
+/// Everything `pipetile validate` reports about one mesh. Distances in world units; divide by
+/// `voxel` (the smallest voxel edge) for voxels.
+struct Validation {
+    double voxel = 1.0;
+    DistanceStats meshToReference;  // from samples of the mesh to the reference isosurface
+    DistanceStats referenceToMesh;  // from samples of the reference to the mesh
+    DistanceStats symmetric;        // max of both maxima; area-weighted mean and RMS of both
+    bool hasLevelSet = false;
+    DistanceStats levelSet;         // |level set| at the mesh samples (level sets only)
+    Topology topology;
+    TriangleQuality quality;
+    double referenceArea = 0.0, referenceVolume = 0.0; // of the isosurface
+    long long referenceTriangles = 0;
+    double referenceSeconds = 0.0;  // volumeToMesh and quad splitting, this run
+    double seconds = 0.0;           // this validation, reference excluded
+    std::vector<double> vertexDistance; // per mesh vertex, distance to the reference
+};
+
+struct ValidationOptions {
+    double sampleSpacingVoxels = 1.0; // face samples about this far apart, in voxels: at least one
+                                      // per voxel-sized isosurface triangle, several per long one
+    int threads = 0;                  // 0: all cores; results do not depend on it
+};
+
+/// Stateful: meshes the volume's isosurface once (volumeToMesh, adaptivity 0, quads split) and
+/// indexes it, then validates any number of meshes against it.
+class Validator {
+public:
+    explicit Validator(const Volume& volume, const ValidationOptions& options = {});
+    ~Validator();
+    Validator(const Validator&) = delete;
+    Validator& operator=(const Validator&) = delete;
+
+    /// @throw Error if the mesh has no triangles.
+    Validation validate(const TriangleMesh& mesh) const;
+
+    const TriangleMesh& reference() const;
+    double referenceSeconds() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> mImpl;
+};
+
+/// openvdb::tools::volumeToMesh of the volume at its isovalue, quads split into triangles, in
+/// world space; `seconds` receives the time it took.
+TriangleMesh isosurface(const Volume& volume, double adaptivity, double* seconds = nullptr);
+
+/// Colours for a per-vertex error: blue at 0, through green and yellow, to red at `redAt` and
+/// beyond (world units). For a PLY a user can open in any viewer.
+std::vector<glm::dvec3> errorColors(const std::vector<double>& distances, double redAt);
 
 } // namespace pipetile
