@@ -139,3 +139,43 @@ TEST(Cli, AbsurdParametersAreUsageErrors)
     EXPECT_NE(r.err.find(".ply .obj .stl .off"), std::string::npos) << r.err;
     EXPECT_TRUE(dir.files().empty());
 }
+
+TEST(Cli, ValidatesAMeshFromVdbTool)
+{
+    // vdb_tool's -ls2mesh is volumeToMesh at adaptivity 0, the reference itself: distance ~0 (the
+    // OBJ text keeps 6 significant digits, ~1e-4 voxel here). Its faces face inward.
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    const std::string command = "vdb_tool -read '" + dir.path("s.vdb") + "' -ls2mesh -write '" + dir.path("vt.obj") + "' > /dev/null";
+    if (std::system(command.c_str()) != 0) GTEST_SKIP() << "vdb_tool (package libopenvdb-tools) is not installed";
+    const test::CliResult r = runCli("validate '" + dir.path("s.vdb") + "' '" + dir.path("vt.obj") + "' --report '" +
+                                     dir.path("r.json") + "' --error-colors '" + dir.path("c.ply") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json v = readJson(dir.path("r.json"))["validation"];
+    EXPECT_LT(v["hausdorff_voxels"].get<double>(), 1e-3);
+    EXPECT_TRUE(v["closed"].get<bool>());
+    EXPECT_FALSE(v["outward"].get<bool>());
+    std::ifstream ply(dir.path("c.ply"));
+    std::string header((std::istreambuf_iterator<char>(ply)), std::istreambuf_iterator<char>());
+    EXPECT_NE(header.find("property uchar red"), std::string::npos);
+}
+
+TEST(Cli, MeshValidateAddsAValidationBlockToEveryLevel)
+{
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    const test::CliResult r = runCli("mesh '" + dir.path("s.vdb") + "' -o '" + dir.path("m.obj") + "' --validate --report '" +
+                                     dir.path("r.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("hausdorff"), std::string::npos);
+    const nlohmann::json j = readJson(dir.path("r.json"));
+    for (const auto& level : j["levels"]) {
+        const auto& v = level["validation"];
+        for (const char* key : {"hausdorff", "mean", "rms", "voxel", "closed", "manifold", "oriented", "euler",
+                                "reference_triangles", "reference_seconds"})
+            EXPECT_TRUE(v.contains(key)) << key;
+        EXPECT_EQ(v["euler"].get<int>(), 2);
+    }
+    // More rays, closer to the isosurface: the error shrinks from level 0 to level 3.
+    EXPECT_LT(j["levels"][3]["validation"]["rms"].get<double>(), j["levels"][0]["validation"]["rms"].get<double>());
+}

@@ -1,5 +1,10 @@
+#include <pipetile/multires.h>
 #include <pipetile/validate.h>
 
+#include "phantoms.h"
+#include "test_util.h"
+
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 using namespace pipetile;
@@ -89,4 +94,156 @@ TEST(Validate, TwoTetrahedraSharingAVertexAreNotManifold)
     EXPECT_EQ(t.nonManifoldEdges, 0);
     EXPECT_EQ(t.nonManifoldVertices, 1);
     EXPECT_EQ(t.components, 2);
+}
+
+// ---- Against the isosurface --------------------------------------------------------------------
+
+namespace {
+
+// The top level of the default pipeline on a sample: the mesh the thresholds speak of.
+TriangleMesh topLevel(const Volume& volume)
+{
+    const Reconstruction r(volume, MeshOptions{});
+    return r.buildLevel(r.levelCount() - 1).mesh;
+}
+
+const TriangleMesh& straightTop()
+{
+    static const TriangleMesh mesh = topLevel(test::cachedSample("straight"));
+    return mesh;
+}
+
+const Validator& straightValidator()
+{
+    static const Validator validator(test::cachedSample("straight"));
+    return validator;
+}
+
+} // namespace
+
+TEST(Validate, DistancesAgreeWithTheAnalyticDistanceFunction)
+{
+    // The reference isosurface is itself within e of the exact capsule (e measured at its vertices,
+    // plus its chord error ~ h^2/(8R) = 0.0125 for 1-voxel triangles on radius 10), so the distance
+    // of each mesh sample to the reference differs from |phi_exact| there by at most e.
+    const samples::DistanceFunction phi = samples::sampleDistance("straight");
+    const Validator& validator = straightValidator();
+    double e = 0.0;
+    for (const glm::dvec3& p : validator.reference().vertices) e = std::max(e, std::abs(phi(p)));
+    e += 0.0125;
+    EXPECT_LT(e, 0.1);
+    const SurfaceSamples s = sampleSurface(straightTop(), 1.0);
+    double maxExact = 0.0, sum = 0.0, weight = 0.0;
+    for (std::size_t i = 0; i < s.points.size(); ++i) {
+        const double d = std::abs(phi(s.points[i]));
+        maxExact = std::max(maxExact, d);
+        sum += s.weights[i] * d;
+        weight += s.weights[i];
+    }
+    const Validation v = validator.validate(straightTop());
+    EXPECT_NEAR(v.meshToReference.max, maxExact, e);
+    EXPECT_NEAR(v.meshToReference.mean, sum / weight, e);
+    // The level set holds the exact distance at voxels; trilinear interpolation errs by ~0.0125.
+    ASSERT_TRUE(v.hasLevelSet);
+    EXPECT_NEAR(v.levelSet.max, maxExact, 0.0125 + 1e-3);
+}
+
+TEST(Validate, IsosurfaceAgainstItselfIsAtDistanceZero)
+{
+    const Validator& validator = straightValidator();
+    const Validation v = validator.validate(validator.reference());
+    EXPECT_LT(v.symmetric.max, 1e-9);
+    EXPECT_EQ(v.referenceTriangles, static_cast<long long>(validator.reference().triangles.size()));
+    EXPECT_NEAR(v.quality.area, v.referenceArea, 1e-6 * v.referenceArea);
+}
+
+TEST(Validate, CatchesAHole)
+{
+    // One triangle removed: its three edges lose their second triangle.
+    TriangleMesh m = straightTop();
+    m.triangles.erase(m.triangles.begin() + 100);
+    const Validation v = straightValidator().validate(m);
+    EXPECT_FALSE(v.topology.closed());
+    EXPECT_EQ(v.topology.boundaryEdges, 3);
+    EXPECT_EQ(v.topology.euler, 1); // a disk
+}
+
+TEST(Validate, CatchesAFlippedFace)
+{
+    TriangleMesh m = straightTop();
+    std::swap(m.triangles[7][1], m.triangles[7][2]);
+    const Validation v = straightValidator().validate(m);
+    EXPECT_TRUE(v.topology.closed());
+    EXPECT_FALSE(v.topology.oriented());
+    EXPECT_EQ(v.topology.misorientedEdges, 3);
+}
+
+TEST(Validate, ShiftedCopyIsAtTheShiftDistance)
+{
+    // Moved 2 voxels along x, the side facing +x lies 2 voxels off the capsule: Hausdorff = 2 (5%).
+    TriangleMesh m = straightTop();
+    for (glm::dvec3& p : m.vertices) p.x += 2.0;
+    const Validation v = straightValidator().validate(m);
+    EXPECT_NEAR(v.symmetric.max, 2.0, 0.1);
+    EXPECT_TRUE(v.topology.closed() && v.topology.manifold() && v.topology.oriented());
+}
+
+TEST(Validate, CatchesAnInsideOutMesh)
+{
+    TriangleMesh m = straightTop();
+    for (Triangle& t : m.triangles) std::swap(t[1], t[2]);
+    const Validation v = straightValidator().validate(m);
+    EXPECT_TRUE(v.topology.oriented()); // consistently, but the wrong way
+    EXPECT_FALSE(v.topology.outward());
+    EXPECT_LT(v.symmetric.max, 1.0);    // the geometry itself is unchanged
+}
+
+TEST(Validate, CatchesTwoCopiesGluedAtAnEdge)
+{
+    // A second copy far away whose first edge is welded to the original's: that edge now has
+    // four triangles.
+    const TriangleMesh& base = straightTop();
+    TriangleMesh m = base;
+    const std::uint32_t n = static_cast<std::uint32_t>(base.vertices.size());
+    for (const glm::dvec3& p : base.vertices) m.vertices.push_back(p + glm::dvec3(100.0, 0.0, 0.0));
+    const std::uint32_t a = base.triangles[0][0], b = base.triangles[0][1];
+    for (Triangle t : base.triangles) {
+        for (std::uint32_t& v : t) v = (v == a || v == b) ? v : v + n;
+        m.triangles.push_back(t);
+    }
+    const Validation v = straightValidator().validate(m);
+    EXPECT_FALSE(v.topology.manifold());
+    EXPECT_GE(v.topology.nonManifoldEdges, 1);
+}
+
+TEST(Validate, ThresholdsOnPhantomAndHelix)
+{
+    // Default settings, top level: within 1 voxel everywhere and 0.2 voxel RMS of volumeToMesh.
+    for (const char* name : {"phantom", "helix"}) {
+        SCOPED_TRACE(name);
+        const Volume& volume = test::cachedSample(name);
+        const Validation v = Validator(volume).validate(topLevel(volume));
+        EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
+        EXPECT_LE(v.symmetric.rms, 0.2 * v.voxel);
+    }
+}
+
+// Known gaps: strict targets that fail today (registered with WILL_FAIL in CMakeLists.txt, so a
+// fix shows up as an unexpected pass). The bean needs the contour-tree tiling and caps that
+// follow C-shaped sections; the aorta bifurcates, and one iliac is closed by a flat cap inside
+// the trunk until branching is tiled.
+TEST(Validate, DISABLED_KnownGapThresholdsOnBean)
+{
+    const Volume& volume = test::cachedSample("bean");
+    const Validation v = Validator(volume).validate(topLevel(volume));
+    EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
+    EXPECT_LE(v.symmetric.rms, 0.2 * v.voxel);
+}
+
+TEST(Validate, DISABLED_KnownGapThresholdsOnRealAorta)
+{
+    const Volume volume = readVolume(test::realData("vmtk_aorta_ls.vdb"));
+    const Validation v = Validator(volume).validate(topLevel(volume));
+    EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
+    EXPECT_LE(v.symmetric.rms, 0.2 * v.voxel);
 }

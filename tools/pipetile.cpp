@@ -77,18 +77,18 @@ json validationJson(const pipetile::Validation& v)
 
 void printValidationHeader()
 {
-    std::printf("%-8s %10s %8s %8s %8s  %-6s %-8s %-8s %5s %9s\n", "", "hausdorff", "mean", "rms", "|phi|max",
-                "closed", "manifold", "oriented", "euler", "min angle");
+    std::printf("%-8s %10s %8s %8s %8s  %-6s %-8s %-8s %-7s %5s %9s\n", "", "hausdorff", "mean", "rms", "|phi|max",
+                "closed", "manifold", "oriented", "outward", "euler", "min angle");
 }
 
 void printValidationRow(const std::string& label, const pipetile::Validation& v)
 {
     const pipetile::Topology& t = v.topology;
     const std::string phi = v.hasLevelSet ? std::to_string(v.levelSet.max / v.voxel).substr(0, 6) : "-";
-    std::printf("%-8s %10.3f %8.3f %8.3f %8s  %-6s %-8s %-8s %5lld %8.1f°   (voxels of %g)\n", label.c_str(),
+    std::printf("%-8s %10.3f %8.3f %8.3f %8s  %-6s %-8s %-8s %-7s %5lld %8.1f°   (voxels of %g)\n", label.c_str(),
                 v.symmetric.max / v.voxel, v.symmetric.mean / v.voxel, v.symmetric.rms / v.voxel, phi.c_str(),
-                t.closed() ? "yes" : "NO", t.manifold() ? "yes" : "NO", t.oriented() && t.outward() ? "yes" : "NO",
-                t.euler, v.quality.smallestAngle, v.voxel);
+                t.closed() ? "yes" : "NO", t.manifold() ? "yes" : "NO", t.oriented() ? "yes" : "NO",
+                t.outward() ? "yes" : "NO", t.euler, v.quality.smallestAngle, v.voxel);
 }
 
 void checkWritableTarget(const std::string& path, const char* what)
