@@ -284,6 +284,7 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
         std::vector<int>& ids = perRay[ray];
         std::sort(ids.begin(), ids.end(),
                   [&](int a, int b) { return contour.crossings[a].crackT < contour.crossings[b].crackT; });
+        for (std::size_t k = 0; k < ids.size(); ++k) contour.crossings[ids[k]].depth = static_cast<int>(k);
         const glm::dvec2 d = direction(ray);
         auto g = [&](double t) { return inwardSign * field(center + t * d); };
         for (std::size_t k = 0; k < ids.size(); ++k) {

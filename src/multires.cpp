@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
+#include <memory>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -56,6 +58,74 @@ bool findApex(const SlicePlane& plane, const glm::dvec2& center, double directio
         inT = t;
     }
     return false;
+}
+
+// Triangulates a simple polygon, counterclockwise in the plane, by ear clipping: m - 2 triangles,
+// counterclockwise. Where rounding leaves no clean ear (a nearly degenerate polygon), the most
+// convex corner is clipped anyway, so the count, and the closed mesh, never depend on it.
+std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
+{
+    std::vector<std::uint32_t> ring(p.size());
+    for (std::uint32_t i = 0; i < ring.size(); ++i) ring[i] = i;
+    auto cross = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        const glm::dvec2 u = p[b] - p[a], v = p[c] - p[b];
+        return u.x * v.y - u.y * v.x;
+    };
+    auto inside = [&](std::uint32_t q, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        return cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0;
+    };
+    std::vector<Triangle> triangles;
+    while (ring.size() > 3) {
+        const std::size_t n = ring.size();
+        std::size_t clip = n, convexmost = 0;
+        double best = -std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < n && clip == n; ++k) {
+            const std::uint32_t a = ring[(k + n - 1) % n], b = ring[k], c = ring[(k + 1) % n];
+            const double turn = cross(a, b, c);
+            if (turn > best) { best = turn; convexmost = k; }
+            if (turn <= 0.0) continue;
+            bool ear = true;
+            for (std::size_t j = 0; j < n && ear; ++j) {
+                const std::uint32_t q = ring[j];
+                if (q != a && q != b && q != c && inside(q, a, b, c)) ear = false;
+            }
+            if (ear) clip = k;
+        }
+        if (clip == n) clip = convexmost;
+        triangles.push_back({ring[(clip + n - 1) % n], ring[clip], ring[(clip + 1) % n]});
+        ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(clip));
+    }
+    if (ring.size() == 3) triangles.push_back({ring[0], ring[1], ring[2]});
+    return triangles;
+}
+
+// Rule [1']: in each ambiguous sector, rank the F edges of `contour` by their distance to the F
+// edge the neighbouring contour's tree stores for that sector (both lie in the same (u, v)
+// plane coordinates). The only floating point of the correspondence, kept out of the integer
+// translation units.
+std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const ContourString& string,
+                                                   const Contour& neighbour, const ContourTree& neighbourTree)
+{
+    const std::vector<std::vector<int>> candidates = ContourTree::forwardEdges(string);
+    bool ambiguous = false;
+    for (const std::vector<int>& f : candidates) ambiguous = ambiguous || f.size() > 1;
+    if (!ambiguous) return {};
+    auto midpoint = [](const Contour& c, int edge) {
+        return 0.5 * (c.crossings[edge].point + c.crossings[(edge + 1) % c.crossings.size()].point);
+    };
+    std::vector<std::vector<int>> rank(candidates.size());
+    for (std::size_t x = 0; x < candidates.size(); ++x) {
+        const glm::dvec2 target = midpoint(neighbour, neighbourTree.mainEdge(static_cast<int>(x)));
+        std::vector<std::pair<double, int>> byDistance;
+        for (std::size_t k = 0; k < candidates[x].size(); ++k) {
+            const glm::dvec2 d = midpoint(contour, candidates[x][k]) - target;
+            byDistance.push_back({d.x * d.x + d.y * d.y, static_cast<int>(k)});
+        }
+        std::stable_sort(byDistance.begin(), byDistance.end());
+        rank[x].assign(candidates[x].size(), 0);
+        for (std::size_t r = 0; r < byDistance.size(); ++r) rank[x][byDistance[r].second] = static_cast<int>(r);
+    }
+    return rank;
 }
 
 } // namespace
@@ -152,17 +222,49 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
         }
         tubeOf = std::move(next);
     }
-    // Tubes were created in slice order; their members are already in slice order too.
+    // Tube ends. Tubes were created in slice order, and their members are in slice order too.
+    // Where the axis through the end contour's central point leaves the object, an end contour
+    // half a voxel inside that point is added, so caps sit within half a voxel of flat ends and
+    // follow rounded ones; the apex is then sought again from it.
+    mPositions = mPlan.positions;
     const double reach = options.slicing.spacingVoxels + 2.0;
+    constexpr double kEndInset = 0.5;
     for (Tube& tube : mTubes) {
         for (const bool top : {false, true}) {
+            const double direction = top ? 1.0 : -1.0;
             const auto [s, l] = top ? tube.members.back() : tube.members.front();
             const SliceLoop& member = mLoops[s][l];
-            const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
+            const SlicePlane plane(mVolume, mPlan, mPositions[s]);
             double wApex = plane.w();
             TubeEnd& end = top ? tube.top : tube.bottom;
-            end.hasApex = !tube.hole && findApex(plane, member.center, top ? 1.0 : -1.0, reach, wApex);
+            end.hasApex = !tube.hole && findApex(plane, member.center, direction, reach, wApex);
             end.apexIndex = planeToIndex(mPlan.axis, member.center, wApex);
+            const double wEnd = wApex - direction * kEndInset;
+            if (!end.hasApex || direction * (wEnd - plane.w()) < 0.25) continue;
+            const SlicePlane endPlane(mVolume, mPlan, wEnd);
+            int best = -1;
+            double bestDistance2 = 0.0;
+            std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
+            for (int k = 0; k < static_cast<int>(loops.size()); ++k) {
+                const BoundaryLoop& candidate = loops[k];
+                if (candidate.hole() || std::abs(candidate.area) < options.minContourArea) continue;
+                if (!encloses(candidate, member.center) && !encloses(member.loop, candidate.centroid)) continue;
+                const glm::dvec2 d = candidate.centroid - member.center;
+                if (best < 0 || d.x * d.x + d.y * d.y < bestDistance2) { best = k; bestDistance2 = d.x * d.x + d.y * d.y; }
+            }
+            if (best < 0) continue;
+            const glm::dvec2 center = centralPoint(loops[best]);
+            if (castRays(loops[best], center, RaySet{options.baseRays, 0}, endPlane).crossings.empty()) continue;
+            mPositions.push_back(wEnd);
+            mLoops.push_back({});
+            mLoops.back().push_back({std::move(loops[best]), center});
+            const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
+            if (top) tube.members.push_back(added);
+            else tube.members.insert(tube.members.begin(), added);
+            ++mStats.endContours;
+            double wAgain = wEnd;
+            end.hasApex = findApex(endPlane, center, direction, 2.0 * kEndInset + 1.0, wAgain);
+            end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
         }
     }
     // A lone contour with no apex on either side would be closed by the same flat fan twice:
@@ -174,6 +276,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
         throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
                     "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
     for (const Tube& tube : mTubes) mStats.flatCaps += (tube.bottom.hasApex ? 0 : 1) + (tube.top.hasApex ? 0 : 1);
+    mStats.slices = static_cast<int>(mPlan.positions.size());
     mStats.tubes = static_cast<int>(mTubes.size());
     mStats.seconds = secondsSince(start);
 }
@@ -191,7 +294,7 @@ LevelMesh Reconstruction::buildLevel(int level) const
     std::vector<std::vector<Contour>> contours(mLoops.size());
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         if (mLoops[s].empty()) return;
-        const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
+        const SlicePlane plane(mVolume, mPlan, mPositions[s]);
         for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.loop, l.center, rays, plane));
     });
 
@@ -204,11 +307,18 @@ LevelMesh Reconstruction::buildLevel(int level) const
         mesh.triangles.push_back(t);
     };
     std::vector<std::uint32_t> ids;
-    // A cap fans around its apex, or lies flat over the contour when no apex was found.
-    auto emitCap = [&](const TubeEnd& end, bool top, bool flip) {
+    // A star-shaped end contour fans around its apex; any other, or one without an apex, is
+    // closed flat by ear clipping, which follows C-shaped and folded sections.
+    auto emitCap = [&](const TubeEnd& end, const Contour& c, bool top, bool flip) {
         const std::uint32_t m = static_cast<std::uint32_t>(ids.size());
-        if (!end.hasApex) {
-            for (const Triangle& t : tileFlatCap(m, top)) emit(t, ids.data(), flip);
+        const bool star = countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
+        if (!end.hasApex || !star) {
+            std::vector<glm::dvec2> polygon;
+            for (const Crossing& x : c.crossings) polygon.push_back(x.point);
+            for (Triangle t : earClip(polygon)) {
+                if (!top) std::swap(t[1], t[2]);
+                emit(t, ids.data(), flip);
+            }
             return;
         }
         ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
@@ -220,6 +330,7 @@ LevelMesh Reconstruction::buildLevel(int level) const
         // Holes wind the other way round their material; a mirroring transform flips everything.
         const bool flip = tube.hole != mirrored;
         std::vector<std::uint32_t> previousIds;
+        std::unique_ptr<ContourTree> previousTree;
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
             const Contour& c = contours[s][l];
@@ -229,19 +340,29 @@ LevelMesh Reconstruction::buildLevel(int level) const
             result.ambiguousContours += isUnambiguous(c) ? 0 : 1;
             result.interpolationFallbacks += c.interpolationFallbacks;
             result.crossings += static_cast<long long>(c.crossings.size());
+            // Each contour's tree follows the previous contour's of the tube (rule [1']).
+            const ContourString string = contourString(c);
+            std::unique_ptr<ContourTree> tree;
+            if (k == 0) {
+                tree = std::make_unique<ContourTree>(string);
+            } else {
+                const auto [ps, pl] = tube.members[k - 1];
+                tree = std::make_unique<ContourTree>(string, rankAgainstNeighbour(c, string, contours[ps][pl], *previousTree));
+            }
+            result.ambiguousSectors += tree->ambiguousSectors();
             ids.clear();
             for (const Crossing& x : c.crossings) {
                 ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
-                mesh.vertices.push_back(toWorld(planeToIndex(mPlan.axis, x.point, mPlan.positions[s])));
+                mesh.vertices.push_back(toWorld(planeToIndex(mPlan.axis, x.point, mPositions[s])));
             }
-            if (k == 0) emitCap(tube.bottom, false, flip);
+            if (k == 0) emitCap(tube.bottom, c, false, flip);
             else {
-                const auto [ps, pl] = tube.members[k - 1];
                 std::vector<std::uint32_t> both = previousIds;
                 both.insert(both.end(), ids.begin(), ids.end());
-                for (const Triangle& t : tileBand(contours[ps][pl].edges, c.edges)) emit(t, both.data(), flip);
+                for (const Triangle& t : tileBand(*previousTree, *tree)) emit(t, both.data(), flip);
             }
-            if (k + 1 == tube.members.size()) emitCap(tube.top, true, flip);
+            if (k + 1 == tube.members.size()) emitCap(tube.top, c, true, flip);
+            previousTree = std::move(tree);
             previousIds = ids;
         }
     }

@@ -7,47 +7,52 @@
 
 namespace pipetile {
 
-namespace {
-
-// Sector reached after each crossing along the main path: F moves one sector on, B one back, U
-// and D stay. The running maximum keeps excursions from pulling the walk backwards.
-std::vector<int> sectorKeys(const std::vector<EdgeType>& edges)
+std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b)
 {
-    std::vector<int> keys(edges.size() + 1, 0);
-    int sector = 0, reached = 0;
-    for (std::size_t i = 0; i < edges.size(); ++i) {
-        if (edges[i] == EdgeType::Forward) ++sector;
-        else if (edges[i] == EdgeType::Backward) --sector;
-        if (sector > reached) reached = sector;
-        keys[i + 1] = reached;
-    }
-    return keys;
-}
-
-} // namespace
-
-std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector<EdgeType>& b)
-{
-    const std::uint32_t m = static_cast<std::uint32_t>(a.size()), n = static_cast<std::uint32_t>(b.size());
-    if (m < 1 || n < 1) throw std::invalid_argument("tileBand: both contours need crossings");
-    const std::vector<int> ka = sectorKeys(a), kb = sectorKeys(b);
+    const std::uint32_t m = static_cast<std::uint32_t>(a.keys().size()), n = static_cast<std::uint32_t>(b.keys().size());
+    const std::uint32_t sa = static_cast<std::uint32_t>(a.startCrossing()), sb = static_cast<std::uint32_t>(b.startCrossing());
+    // Past the last crossing the traversal is back at F_0: the key of the closing vertex.
+    const TraversalKey end{a.rays(), 3, 0, 0};
+    auto keyA = [&](std::uint32_t i) { return i == m ? end : a.keys()[(sa + i) % m]; };
+    auto keyB = [&](std::uint32_t j) { return j == n ? end : b.keys()[(sb + j) % n]; };
     std::vector<Triangle> band;
     band.reserve(m + n);
     std::uint32_t i = 0, j = 0;
     while (i < m || j < n) {
-        // Advance the contour whose next crossing lies in the earlier sector; on a tie, A first,
-        // which splits every quad along the same diagonal.
-        const bool advanceA = j == n || (i < m && ka[i + 1] <= kb[j + 1]);
-        const std::uint32_t ai = i % m, bj = m + j % n;
+        // Advance the contour whose next crossing comes first in the traversal; on a tie, A
+        // first, which splits every quad along the same diagonal.
+        const bool advanceA = j == n || (i < m && keyA(i + 1) <= keyB(j + 1));
+        const std::uint32_t ai = (sa + i) % m, bj = m + (sb + j) % n;
         if (advanceA) {
-            band.push_back({ai, (i + 1) % m, bj});
+            band.push_back({ai, (sa + i + 1) % m, bj});
             ++i;
         } else {
-            band.push_back({ai, m + (j + 1) % n, bj});
+            band.push_back({ai, m + (sb + j + 1) % n, bj});
             ++j;
         }
     }
     return band;
+}
+
+ContourString stringOfEdges(const std::vector<EdgeType>& edges)
+{
+    ContourString c;
+    c.edges = edges;
+    int ray = 0;
+    for (EdgeType t : edges) {
+        c.ray.push_back(ray);
+        ray += t == EdgeType::Forward ? 1 : t == EdgeType::Backward ? -1 : 0;
+    }
+    c.rays = ray; // #F - #B for a contour that winds once
+    for (int& r : c.ray) r = c.rays > 0 ? ((r % c.rays) + c.rays) % c.rays : 0;
+    c.depth.assign(edges.size(), 0);
+    return c;
+}
+
+std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector<EdgeType>& b)
+{
+    if (a.empty() || b.empty()) throw std::invalid_argument("tileBand: both contours need crossings");
+    return tileBand(ContourTree(stringOfEdges(a)), ContourTree(stringOfEdges(b)));
 }
 
 std::vector<Triangle> tileCap(std::uint32_t m, bool top)

@@ -72,13 +72,14 @@ TEST(Cli, SampleListNamesEverySample)
 TEST(Cli, MeshesStraightSampleAsStarContours)
 {
     // Circles are star-shaped: every contour has exactly `rays` crossings, so the triangle count
-    // is 2 * rays * contours (see test_multires for the 57 contours).
+    // is 2 * rays * contours (see test_multires for the 57 + 2 contours).
     TempDir dir;
     ASSERT_EQ(runCli("sample straight -o '" + dir.path("straight.vdb") + "'").exitCode, 0);
     const nlohmann::json j = meshAndCheck(dir, dir.path("straight.vdb"), "", 1);
     for (const auto& level : j["levels"]) {
         EXPECT_EQ(level["ambiguous_contours"].get<int>(), 0);
-        EXPECT_EQ(level["triangles"].get<long long>(), 2LL * level["rays"].get<int>() * 57);
+        EXPECT_EQ(level["contours"].get<int>(), 59);
+        EXPECT_EQ(level["triangles"].get<long long>(), 2LL * level["rays"].get<int>() * 59);
     }
 }
 

@@ -38,9 +38,11 @@ TEST(Multires, StraightCapsuleHasTheExactTriangleCount)
     // Capsule: axis (32, 32), z in [16, 112], radius 10, so the surface spans z in (6, 122). The
     // band is active where |phi| < 3 voxels: z from 4 to 124, so slices sit at z = 4, 6, ..., 124.
     // Slices at z = 6 and 122 touch only the tips (radius 0, nothing strictly inside), those
-    // beyond are empty, and z = 8 .. 120 (radius >= 6) each hold one circle: 57 contours.
-    // Circles are star-shaped: n crossings each. One tube of 57 contours: 2 * n * 57 triangles
-    // (two per F-edge pair in the 56 bands, n per cap) and n * 57 + 2 vertices (2 cap apexes).
+    // beyond are empty, and z = 8 .. 120 (radius >= 6) each hold one circle: 57 contours. The
+    // axis meets the tips at z = 6 and 122, so an end contour is added half a voxel inside each
+    // (z = 6.5 and 121.5, radius sqrt(100 - 9.5^2) = 3.1): 59 contours in one tube.
+    // Circles are star-shaped: n crossings each, two triangles per crossing (bands of m_k + m_k+1,
+    // caps of m around the tips): 2 * n * 59 triangles, n * 59 + 2 vertices (2 cap apexes).
     const Volume& v = cachedSample("straight");
     MeshOptions options;
     options.slicing = {Axis::Auto, 2.0};
@@ -48,13 +50,15 @@ TEST(Multires, StraightCapsuleHasTheExactTriangleCount)
     const Reconstruction r(v, options);
     EXPECT_EQ(r.plan().axis, 2);
     EXPECT_EQ(r.stats().contours, 57);
+    EXPECT_EQ(r.stats().endContours, 2);
     EXPECT_EQ(r.stats().tubes, 1);
     for (int level = 0; level < 4; ++level) {
         const LevelMesh m = r.buildLevel(level);
         const std::size_t n = 8u << level;
         EXPECT_EQ(m.ambiguousContours, 0);
-        EXPECT_EQ(m.mesh.triangles.size(), 2 * n * 57);
-        EXPECT_EQ(m.mesh.vertices.size(), n * 57 + 2);
+        EXPECT_EQ(m.contours, 59);
+        EXPECT_EQ(m.mesh.triangles.size(), 2 * n * 59);
+        EXPECT_EQ(m.mesh.vertices.size(), n * 59 + 2);
         expectClosedSphere(m.mesh, 1);
     }
 }

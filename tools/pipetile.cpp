@@ -167,7 +167,8 @@ int runMesh(const MeshArgs& args)
         {"statistics", {{"empty_slices", stats.emptySlices}, {"contours", stats.contours}, {"holes", stats.holes},
                         {"tubes", stats.tubes}, {"dropped_small_contours", stats.droppedSmall},
                         {"dropped_unwound_contours", stats.droppedUnwound},
-                        {"dropped_flat_contours", stats.droppedFlat}, {"flat_caps", stats.flatCaps},
+                        {"dropped_flat_contours", stats.droppedFlat}, {"end_contours", stats.endContours},
+                        {"flat_caps", stats.flatCaps},
                         {"seconds", stats.seconds}}},
         {"levels", json::array()},
     };
@@ -186,6 +187,7 @@ int runMesh(const MeshArgs& args)
             {"seconds", level.seconds},
             {"contours", level.contours},
             {"ambiguous_contours", level.ambiguousContours},
+            {"ambiguous_sectors", level.ambiguousSectors},
             {"interpolation_fallbacks", level.interpolationFallbacks},
         });
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),

@@ -67,6 +67,7 @@ enum class EdgeType : std::uint8_t {
 struct Crossing {
     int ray = 0;              // ray index in [0, RaySet::count())
     CrossingKind kind = CrossingKind::InOut;
+    int depth = 0;            // order along its ray, 0 = nearest the centre (integer, for the tree)
     double crackT = 0.0;      // distance from the centre to the loop's polygon: fixes order
     double t = 0.0;           // distance from the centre to the interpolated surface: fixes position
     glm::dvec2 point{0.0};    // in-plane position, pixel units

@@ -35,6 +35,7 @@ struct LevelMesh {
     double seconds = 0.0;          // ray casting and tiling of this level
     int contours = 0;              // contours tiled
     int ambiguousContours = 0;     // contours with more than one F edge in some sector
+    long long ambiguousSectors = 0; // sectors with more than one F edge, over all contours
     long long crossings = 0;       // vertices on contours (the rest are end-cap apexes)
     int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
 };
@@ -43,11 +44,12 @@ struct LevelMesh {
 struct ReconstructionStats {
     int slices = 0;                // slice planes sampled
     int emptySlices = 0;           // planes that crossed nothing
-    int contours = 0;              // contours kept, over all slices
+    int contours = 0;              // contours kept, over all slices (end contours not included)
     int holes = 0;                 // of which bound a hole (inner walls of hollow pipes)
     int droppedSmall = 0;          // cross-sections below minContourArea
     int droppedUnwound = 0;        // loops that do not wind around their central point
     int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
+    int endContours = 0;           // contours added half a voxel inside where a tube ends
     int tubes = 0;                 // chains of corresponding contours, each closed by two caps
     int flatCaps = 0;              // caps whose apex was not found past the last slice
     double seconds = 0.0;          // slicing, boundary walks and correspondence
@@ -85,7 +87,8 @@ private:
     Volume mVolume;
     MeshOptions mOptions;
     SlicePlan mPlan;
-    std::vector<std::vector<SliceLoop>> mLoops; // per slice
+    std::vector<double> mPositions;            // the plan's slices, then the end contours' planes
+    std::vector<std::vector<SliceLoop>> mLoops; // per plane of mPositions
     std::vector<Tube> mTubes;
     ReconstructionStats mStats;
 };

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <pipetile/contour.h>
+#include <pipetile/contour_tree.h>
 
 #include <array>
 #include <cstdint>
@@ -16,18 +17,25 @@ namespace pipetile {
 /// Three vertex ids, counterclockwise seen from outside.
 using Triangle = std::array<std::uint32_t, 3>;
 
-/// Tiles the band between contour A (slice k, m crossings) and contour B (slice k+1, n crossings),
-/// both starting at their outermost InOut crossing of ray 0 and winding counterclockwise seen from
-/// +w. Vertex ids: A's crossing i is i, B's crossing j is m + j.
-///
-/// Each contour is read as its main path through the sectors: an F edge moves it one sector on,
-/// a B edge one back, U and D edges stay on their ray. Both contours are advanced together by
-/// sector, so crossing x of A meets crossing x of B: for unambiguous star-shaped contours each
-/// pair of F edges becomes one quad, split into two triangles.
+/// Tiles the band between contour A (slice k, m crossings) and contour B (slice k+1, n crossings)
+/// by traversing their contour trees together (paper §4.2): level-1 nodes x meet, so their F
+/// edges make a quad (two triangles, split along the same diagonal everywhere); excursions of the
+/// same type meet child by child (traversal cases 1 and 2); a child, or a whole excursion, with
+/// no partner is fanned to the other contour's vertex where the traversal stands (case 3).
+/// Both contours wind counterclockwise seen from +w. Vertex ids: A's crossing i is i, B's
+/// crossing j is m + j.
 ///
 /// Always returns exactly m + n triangles forming a closed strip: every contour edge lies in one
-/// triangle, and consecutive triangles share a spanning edge (an acceptable surface).
+/// triangle, and consecutive triangles share a spanning edge (an acceptable surface). The result
+/// does not depend on which crossing each contour lists first.
+std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b);
+
+/// The same for contours given by their edge strings alone, crossing 0 on ray 0 (tests, tools).
 std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector<EdgeType>& b);
+
+/// The integer description of a contour given by its edge string, crossing 0 on ray 0: rays from
+/// the F and B edges, every depth 0.
+ContourString stringOfEdges(const std::vector<EdgeType>& edges);
 
 /// Closes a contour of m crossings (ids 0..m-1) with a fan around an apex (id m): m triangles.
 /// `top` caps the last contour of a tube (normals toward +w); otherwise the first (toward -w).
