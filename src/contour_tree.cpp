@@ -53,7 +53,8 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     const int m = static_cast<int>(c.edges.size());
     int winding = 0;
     for (EdgeType t : c.edges) winding += t == EdgeType::Forward ? 1 : t == EdgeType::Backward ? -1 : 0;
-    if (m == 0 || winding != c.rays || static_cast<int>(c.ray.size()) != m)
+    if (m == 0 || c.rays < 1 || winding != c.rays || static_cast<int>(c.ray.size()) != m ||
+        (!c.depth.empty() && static_cast<int>(c.depth.size()) != m))
         throw std::invalid_argument("ContourTree: the contour does not wind once around its centre (#F - #B != n)");
 
     // Rules [1] / [1']: one F edge per sector, in walk order. The preferred candidate of sector 0
