@@ -246,6 +246,13 @@ int ContourTree::parseExcursion(const ContourString& c, int from, int to)
     return combine(allSame ? 6 : 7, up(items.front()), items);
 }
 
+std::size_t ContourTree::bytes() const
+{
+    std::size_t total = sizeof(*this) + mNodes.capacity() * sizeof(TreeNode) + mKeys.capacity() * sizeof(TraversalKey);
+    for (const TreeNode& n : mNodes) total += n.children.capacity() * sizeof(int);
+    return total;
+}
+
 std::string ContourTree::toString() const
 {
     std::string s;

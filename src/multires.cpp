@@ -2,6 +2,7 @@
 
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
+#include <pipetile/toroidal.h>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -341,15 +342,20 @@ LevelMesh Reconstruction::buildLevel(int level) const
             result.interpolationFallbacks += c.interpolationFallbacks;
             result.crossings += static_cast<long long>(c.crossings.size());
             // Each contour's tree follows the previous contour's of the tube (rule [1']).
-            const ContourString string = contourString(c);
+            const Clock::time_point tiling = Clock::now();
             std::unique_ptr<ContourTree> tree;
-            if (k == 0) {
-                tree = std::make_unique<ContourTree>(string);
-            } else {
-                const auto [ps, pl] = tube.members[k - 1];
-                tree = std::make_unique<ContourTree>(string, rankAgainstNeighbour(c, string, contours[ps][pl], *previousTree));
+            if (mOptions.tiler == TilerKind::ContourTree) {
+                const ContourString string = contourString(c);
+                if (k == 0) {
+                    tree = std::make_unique<ContourTree>(string);
+                } else {
+                    const auto [ps, pl] = tube.members[k - 1];
+                    tree = std::make_unique<ContourTree>(string, rankAgainstNeighbour(c, string, contours[ps][pl], *previousTree));
+                }
+                result.ambiguousSectors += tree->ambiguousSectors();
+                result.tilingBytes += tree->bytes();
             }
-            result.ambiguousSectors += tree->ambiguousSectors();
+            result.tilingSeconds += secondsSince(tiling);
             ids.clear();
             for (const Crossing& x : c.crossings) {
                 ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
@@ -359,7 +365,21 @@ LevelMesh Reconstruction::buildLevel(int level) const
             else {
                 std::vector<std::uint32_t> both = previousIds;
                 both.insert(both.end(), ids.begin(), ids.end());
-                for (const Triangle& t : tileBand(*previousTree, *tree)) emit(t, both.data(), flip);
+                const Clock::time_point tiling = Clock::now();
+                std::vector<Triangle> band;
+                if (mOptions.tiler == TilerKind::ContourTree) {
+                    band = tileBand(*previousTree, *tree);
+                } else {
+                    // The baselines see the same contours as world-space points.
+                    std::vector<glm::dvec3> a, b;
+                    for (std::uint32_t id : previousIds) a.push_back(mesh.vertices[id]);
+                    for (std::uint32_t id : ids) b.push_back(mesh.vertices[id]);
+                    ToroidalStats stats;
+                    band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+                    result.tilingBytes += stats.bytes;
+                }
+                result.tilingSeconds += secondsSince(tiling);
+                for (const Triangle& t : band) emit(t, both.data(), flip);
             }
             if (k + 1 == tube.members.size()) emitCap(tube.top, c, true, flip);
             previousTree = std::move(tree);

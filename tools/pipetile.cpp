@@ -4,6 +4,7 @@
 #include <pipetile/detail/atomic_file.h>
 #include <pipetile/pipetile.h>
 
+#include "bench.h"
 #include "phantoms.h"
 
 #include <CLI/CLI.hpp>
@@ -107,6 +108,7 @@ struct MeshArgs {
     double spacing = 2.0;
     int rays = 8, levels = 4, threads = 0;
     bool validate = false;
+    std::string tiler = "contour-tree";
 };
 
 int runMesh(const MeshArgs& args)
@@ -119,6 +121,8 @@ int runMesh(const MeshArgs& args)
     options.baseRays = args.rays;
     options.levels = args.levels;
     options.threads = args.threads;
+    options.tiler = args.tiler == "optimal" ? pipetile::TilerKind::Optimal
+                  : args.tiler == "greedy"  ? pipetile::TilerKind::Greedy : pipetile::TilerKind::ContourTree;
     pipetile::checkMeshOptions(options);
 
     // Fail before any work on outputs that could never be written.
@@ -161,6 +165,7 @@ int runMesh(const MeshArgs& args)
         {"class", pipetile::toString(volume.volumeClass())},
         {"iso", volume.iso()},
         {"axis", axisName(reconstruction.plan().axis)},
+        {"tiler", args.tiler},
         {"spacing", options.slicing.spacingVoxels},
         {"voxel", volume.smallestVoxel()},
         {"slices", stats.slices},
@@ -185,6 +190,8 @@ int runMesh(const MeshArgs& args)
             {"vertices", level.mesh.vertices.size()},
             {"triangles", level.mesh.triangles.size()},
             {"seconds", level.seconds},
+            {"tiling_seconds", level.tilingSeconds},
+            {"tiling_bytes", level.tilingBytes},
             {"contours", level.contours},
             {"ambiguous_contours", level.ambiguousContours},
             {"ambiguous_sectors", level.ambiguousSectors},
@@ -297,6 +304,15 @@ int main(int argc, char** argv)
     mesh->add_option("--report", meshArgs.report, "write a JSON report");
     mesh->add_option("--threads", meshArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
     mesh->add_flag("--validate", meshArgs.validate, "compare every level with volumeToMesh's isosurface");
+    mesh->add_option("--tiler", meshArgs.tiler, "tiler: the paper's contour trees, or a toroidal baseline")
+        ->check(CLI::IsMember({"contour-tree", "optimal", "greedy"}));
+
+    pipetile::tools::BenchArgs benchArgs;
+    CLI::App* bench = app.add_subcommand("bench", "Time pipetile against its baselines and volumeToMesh on one grid");
+    bench->add_option("INPUT", benchArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
+    bench->add_option("--report", benchArgs.report, "write the figures as JSON");
+    bench->add_option("--repeat", benchArgs.repeat, "repetitions per figure (median reported)")->check(CLI::Range(1, 1000));
+    bench->add_option("--threads", benchArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
     ValidateArgs validateArgs;
     CLI::App* validate = app.add_subcommand("validate", "Compare any mesh with the isosurface of a .vdb volume");
@@ -333,6 +349,7 @@ int main(int argc, char** argv)
     try {
         if (mesh->parsed()) return runMesh(meshArgs);
         if (validate->parsed()) return runValidate(validateArgs);
+        if (bench->parsed()) return pipetile::tools::runBench(benchArgs);
         if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);
         if (info->parsed()) return runInfo(infoInput);
     } catch (const pipetile::UsageError& e) {

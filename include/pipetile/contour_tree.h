@@ -91,6 +91,8 @@ public:
     int startCrossing() const { return mStart; }
     /// Number of sectors holding more than one F edge.
     int ambiguousSectors() const { return mAmbiguous; }
+    /// Bytes of the tree's working structures (nodes, their child lists, traversal keys).
+    std::size_t bytes() const;
     /// The tree as an S-expression, e.g. "(R (1 F) (1 F U:(5 U_I U_O)) ...)", for tests and debugging.
     std::string toString() const;
 

@@ -18,6 +18,13 @@
 
 namespace pipetile {
 
+/// Which tiler joins adjacent contours.
+enum class TilerKind {
+    ContourTree, // the paper's: simultaneous traversal of contour trees, integer-only
+    Optimal,     // baseline: minimum-area acceptable surface (Fuchs, Kedem & Uselton 1977)
+    Greedy,      // baseline: shorter spanning edge first (Christiansen & Sederberg 1978)
+};
+
 struct MeshOptions {
     SliceOptions slicing;          // axis and spacing of the slices
     int baseRays = 8;              // n0: rays at level 0, in [3, 4096]
@@ -25,6 +32,7 @@ struct MeshOptions {
     double minContourArea = 1.0;   // pixels^2: smaller cross-sections (below one pixel) are dropped
                                    // (and counted)
     int threads = 0;               // 0: all cores; results do not depend on it
+    TilerKind tiler = TilerKind::ContourTree; // what tiles the bands (caps are the same for all)
 };
 
 /// One level of detail and what it took.
@@ -33,6 +41,8 @@ struct LevelMesh {
     int rays = 0;                  // rays per contour at this level
     TriangleMesh mesh;
     double seconds = 0.0;          // ray casting and tiling of this level
+    double tilingSeconds = 0.0;    // of which the tiler's: trees and traversal, or the DP / greedy
+    std::size_t tilingBytes = 0;   // the tiler's working structures, summed over all bands
     int contours = 0;              // contours tiled
     int ambiguousContours = 0;     // contours with more than one F edge in some sector
     long long ambiguousSectors = 0; // sectors with more than one F edge, over all contours

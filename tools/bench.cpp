@@ -1,0 +1,175 @@
+// pipetile — `pipetile bench`: every figure is measured in this run, on the same grid, as the median
+// of several repetitions (DESIGN.md, Measuring).
+
+#include "bench.h"
+
+#include <pipetile/detail/atomic_file.h>
+#include <pipetile/pipetile.h>
+
+#include "phantoms.h"
+
+#include <meshoptimizer.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+
+namespace pipetile::tools {
+
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+struct Timing {
+    double median = 0.0, min = 0.0, max = 0.0;
+};
+
+// Runs `work` `repeat` times; its last result is kept by the caller through the closure.
+Timing measure(int repeat, const std::function<void()>& work)
+{
+    std::vector<double> seconds;
+    for (int r = 0; r < repeat; ++r) {
+        const Clock::time_point start = Clock::now();
+        work();
+        seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+    }
+    std::sort(seconds.begin(), seconds.end());
+    return {seconds[seconds.size() / 2], seconds.front(), seconds.back()};
+}
+
+json timingJson(const Timing& t) { return {{"seconds", t.median}, {"min", t.min}, {"max", t.max}}; }
+
+// uniform volumeToMesh followed by meshoptimizer, down to `targetTriangles`.
+TriangleMesh simplified(const TriangleMesh& mesh, std::size_t targetTriangles)
+{
+    std::vector<unsigned int> indices;
+    indices.reserve(3 * mesh.triangles.size());
+    for (const Triangle& t : mesh.triangles) indices.insert(indices.end(), t.begin(), t.end());
+    std::vector<float> positions;
+    positions.reserve(3 * mesh.vertices.size());
+    for (const glm::dvec3& p : mesh.vertices) {
+        positions.push_back(static_cast<float>(p.x));
+        positions.push_back(static_cast<float>(p.y));
+        positions.push_back(static_cast<float>(p.z));
+    }
+    std::vector<unsigned int> out(indices.size());
+    // target_error 1 (relative to the mesh extent): let the triangle count decide, as a user
+    // asking for "this many triangles" would.
+    const std::size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
+                                               mesh.vertices.size(), 3 * sizeof(float), 3 * targetTriangles, 1.0f, 0, nullptr);
+    TriangleMesh result;
+    result.vertices = mesh.vertices;
+    for (std::size_t i = 0; i + 2 < count; i += 3) result.triangles.push_back({out[i], out[i + 1], out[i + 2]});
+    return result;
+}
+
+json accuracyJson(const Validation& v)
+{
+    return {{"hausdorff_voxels", v.symmetric.max / v.voxel}, {"rms_voxels", v.symmetric.rms / v.voxel},
+            {"closed", v.topology.closed()}, {"manifold", v.topology.manifold()}};
+}
+
+} // namespace
+
+int runBench(const BenchArgs& args)
+{
+    if (args.repeat < 1 || args.repeat > 1000) throw UsageError("--repeat must be between 1 and 1000");
+    const Volume volume = args.input.empty() ? samples::makeSample("phantom") : readVolume(args.input);
+    const int repeat = args.repeat;
+    MeshOptions options;
+    options.threads = args.threads;
+    json report = {{"input", volume.source()}, {"grid", volume.gridName()}, {"repeat", repeat}};
+    std::printf("# pipetile bench: %s, grid '%s' (median of %d runs; min..max in the JSON)\n\n", volume.source().c_str(),
+                volume.gridName().c_str(), repeat);
+
+    // The whole pipeline, all levels, as `pipetile mesh` runs it (files aside).
+    std::vector<LevelMesh> levels;
+    const Timing pipeline = measure(repeat, [&] {
+        const Reconstruction r(volume, options);
+        levels.clear();
+        for (int level = 0; level < r.levelCount(); ++level) levels.push_back(r.buildLevel(level));
+    });
+
+    // Table 1: the same contours tiled by each tiler (only the tiling is timed).
+    std::printf("## Table 1: tilers on the same contours\n\n| level | rays | tiler | seconds | triangles | bytes |\n|---|---|---|---|---|---|\n");
+    json table1 = json::array();
+    const std::vector<std::pair<TilerKind, const char*>> tilers = {
+        {TilerKind::ContourTree, "contour-tree"}, {TilerKind::Optimal, "optimal"}, {TilerKind::Greedy, "greedy"}};
+    std::vector<std::unique_ptr<Reconstruction>> byTiler;
+    for (const auto& [kind, name] : tilers) {
+        MeshOptions o = options;
+        o.tiler = kind;
+        byTiler.push_back(std::make_unique<Reconstruction>(volume, o));
+    }
+    for (int level = 0; level < options.levels; ++level) {
+        json row = {{"level", level + 1}, {"rays", options.baseRays << level}};
+        for (std::size_t k = 0; k < tilers.size(); ++k) {
+            std::vector<double> seconds;
+            LevelMesh m;
+            for (int r = 0; r < repeat; ++r) {
+                m = byTiler[k]->buildLevel(level);
+                seconds.push_back(m.tilingSeconds);
+            }
+            std::sort(seconds.begin(), seconds.end());
+            row[tilers[k].second] = {{"seconds", seconds[seconds.size() / 2]}, {"min", seconds.front()}, {"max", seconds.back()},
+                                     {"triangles", m.mesh.triangles.size()}, {"bytes", m.tilingBytes}};
+            std::printf("| %d | %d | %s | %.5f | %zu | %zu |\n", level + 1, options.baseRays << level, tilers[k].second,
+                        seconds[seconds.size() / 2], m.mesh.triangles.size(), m.tilingBytes);
+        }
+        table1.push_back(row);
+    }
+    report["table1"] = table1;
+
+    // Peers on the same grid: volumeToMesh uniform and adaptive, and uniform + meshoptimizer.
+    TriangleMesh uniform;
+    const Timing uniformTime = measure(repeat, [&] { uniform = isosurface(volume, 0.0); });
+    const Validator validator(volume, {1.0, args.threads});
+    std::printf("\n## Peers (distances to the uniform isosurface, in voxels)\n\n"
+                "| method | seconds | triangles | Hausdorff | RMS | time vs pipetile (all levels) |\n|---|---|---|---|---|---|\n");
+    json peers = json::array();
+    auto peerRow = [&](const std::string& name, const Timing& t, const TriangleMesh& mesh) {
+        const Validation v = validator.validate(mesh);
+        json row = {{"method", name}, {"triangles", mesh.triangles.size()}};
+        row.update(timingJson(t));
+        row.update(accuracyJson(v));
+        row["ratio_to_pipetile"] = t.median / pipeline.median;
+        peers.push_back(row);
+        std::printf("| %s | %.4f | %zu | %.3f | %.3f | %.1fx |\n", name.c_str(), t.median, mesh.triangles.size(),
+                    v.symmetric.max / v.voxel, v.symmetric.rms / v.voxel, t.median / pipeline.median);
+    };
+    peerRow("volumeToMesh uniform", uniformTime, uniform);
+    for (double adaptivity : {0.3, 0.6, 0.9}) {
+        TriangleMesh adaptive;
+        const Timing t = measure(repeat, [&] { adaptive = isosurface(volume, adaptivity); });
+        peerRow("volumeToMesh adaptive " + std::to_string(adaptivity).substr(0, 3), t, adaptive);
+    }
+    for (const LevelMesh& level : levels) {
+        TriangleMesh simple;
+        const Timing simplifyTime = measure(repeat, [&] { simple = simplified(uniform, level.mesh.triangles.size()); });
+        const Timing total{uniformTime.median + simplifyTime.median, uniformTime.min + simplifyTime.min,
+                           uniformTime.max + simplifyTime.max};
+        peerRow("uniform + meshopt_simplify to L" + std::to_string(level.level), total, simple);
+    }
+    for (const LevelMesh& level : levels) {
+        Timing t{level.seconds, level.seconds, level.seconds};
+        peerRow("pipetile L" + std::to_string(level.level) + " (level alone)", t, level.mesh);
+    }
+    report["peers"] = peers;
+    report["pipetile"] = timingJson(pipeline);
+    std::printf("\npipetile mesh, all %d levels: %.4f s (min %.4f, max %.4f)\n", options.levels, pipeline.median, pipeline.min,
+                pipeline.max);
+    if (!args.report.empty()) {
+        detail::writeAtomically(args.report, [&](const std::string& tmp) {
+            std::ofstream out(tmp);
+            out << report.dump(2) << '\n';
+            if (!out) throw Error("'" + args.report + "': cannot write the report");
+        });
+    }
+    return 0;
+}
+
+} // namespace pipetile::tools
