@@ -154,18 +154,31 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
 {
     constexpr int kSteps = 8;
     double bestA = 0.0, bestB = 0.0, ga = 0.0, gb = 0.0, bestDistance = std::numeric_limits<double>::infinity();
-    double prevT = lower, prevG = g(lower);
-    for (int k = 1; k <= kSteps; ++k) {
-        const double nextT = lower + (upper - lower) * k / kSteps;
-        const double nextG = g(nextT);
-        const bool crosses = rising ? (prevG < 0.0 && nextG >= 0.0) : (prevG >= 0.0 && nextG < 0.0);
-        const double distance = std::abs(0.5 * (prevT + nextT) - crackT);
-        if (crosses && distance < bestDistance) {
-            bestDistance = distance;
-            bestA = prevT; bestB = nextT; ga = prevG; gb = nextG;
+    // The polygon lies within its chord error of the surface, so a tight bracket around the
+    // polygon's crossing almost always holds the root: two samples instead of a scan.
+    constexpr double kTight = 0.05;
+    if (crackT - kTight >= lower && crackT + kTight <= upper) {
+        const double a = crackT - kTight, b = crackT + kTight, fa = g(a), fb = g(b);
+        if (rising ? (fa < 0.0 && fb >= 0.0) : (fa >= 0.0 && fb < 0.0)) {
+            bestA = a; bestB = b; ga = fa; gb = fb;
+            bestDistance = 0.0;
         }
-        prevT = nextT;
-        prevG = nextG;
+    }
+    // Otherwise scan the window and take the sign change of the right direction nearest the polygon.
+    if (!std::isfinite(bestDistance)) {
+        double prevT = lower, prevG = g(lower);
+        for (int k = 1; k <= kSteps; ++k) {
+            const double nextT = lower + (upper - lower) * k / kSteps;
+            const double nextG = g(nextT);
+            const bool crosses = rising ? (prevG < 0.0 && nextG >= 0.0) : (prevG >= 0.0 && nextG < 0.0);
+            const double distance = std::abs(0.5 * (prevT + nextT) - crackT);
+            if (crosses && distance < bestDistance) {
+                bestDistance = distance;
+                bestA = prevT; bestB = nextT; ga = prevG; gb = nextG;
+            }
+            prevT = nextT;
+            prevG = nextG;
+        }
     }
     if (!std::isfinite(bestDistance)) return false;
     // Illinois false position: the field is smooth along the ray, so this converges in a few steps.

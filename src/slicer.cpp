@@ -83,6 +83,12 @@ struct SlicePlane::Impl {
     double sign;   // +1 level set, -1 fog: turns values into the signed field
     double iso;
     mutable openvdb::FloatGrid::ConstAccessor accessor;
+    struct Cell {
+        bool valid = false;
+        int u = 0, v = 0;
+        double values[4] = {0.0, 0.0, 0.0, 0.0}; // (u, v), (u+1, v), (u, v+1), (u+1, v+1)
+    };
+    mutable Cell cell; // the last bilinear cell sampled
 
     Impl(const Volume& vol, const SlicePlan& p, double wPlane)
         : volume(&vol), plan(&p), w(wPlane), w0(static_cast<int>(std::floor(wPlane))), frac(wPlane - std::floor(wPlane)),
@@ -130,9 +136,13 @@ double SlicePlane::sample(const glm::dvec2& uv) const
     const double fu = std::floor(uv.x), fv = std::floor(uv.y);
     const int u = static_cast<int>(fu), v = static_cast<int>(fv);
     const double s = uv.x - fu, t = uv.y - fv;
-    const double a = mImpl->pixel(u, v), b = mImpl->pixel(u + 1, v);
-    const double c = mImpl->pixel(u, v + 1), d = mImpl->pixel(u + 1, v + 1);
-    return (1.0 - t) * (a + s * (b - a)) + t * (c + s * (d - c));
+    // Root finding along a ray samples the same pixel cell several times in a row.
+    Impl::Cell& cell = mImpl->cell;
+    if (!cell.valid || cell.u != u || cell.v != v) {
+        cell = {true, u, v, {mImpl->pixel(u, v), mImpl->pixel(u + 1, v), mImpl->pixel(u, v + 1), mImpl->pixel(u + 1, v + 1)}};
+    }
+    const double* f = cell.values;
+    return (1.0 - t) * (f[0] + s * (f[1] - f[0])) + t * (f[2] + s * (f[3] - f[2]));
 }
 
 double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
