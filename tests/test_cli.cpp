@@ -180,3 +180,128 @@ TEST(Cli, MeshValidateAddsAValidationBlockToEveryLevel)
     // More rays, closer to the isosurface: the error shrinks from level 0 to level 3.
     EXPECT_LT(j["levels"][3]["validation"]["rms"].get<double>(), j["levels"][0]["validation"]["rms"].get<double>());
 }
+
+// ---- Bad input: exit code 1 (2 for usage), a message naming the problem, and no output file --
+
+namespace {
+
+// Runs `pipetile mesh INPUT -o DIR/out.ply --report DIR/out.json EXTRA` and checks the contract.
+void expectRefusal(const TempDir& dir, const std::string& input, const std::string& extra, int exitCode,
+                   const std::vector<std::string>& messageParts)
+{
+    const std::vector<std::string> before = dir.files();
+    const test::CliResult r = runCli("mesh '" + input + "' -o '" + dir.path("out.ply") + "' --report '" +
+                                     dir.path("out.json") + "' " + extra);
+    EXPECT_EQ(r.exitCode, exitCode) << r.err;
+    for (const std::string& part : messageParts) EXPECT_NE(r.err.find(part), std::string::npos) << part << " in: " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+    EXPECT_EQ(dir.files(), before); // nothing created, nothing overwritten
+}
+
+} // namespace
+
+TEST(Cli, RefusesATruncatedVdb)
+{
+    TempDir dir;
+    std::ifstream in(test::realData("vmtk_aorta_ls.vdb"), std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir.path("cut.vdb"), std::ios::binary) << bytes.substr(0, bytes.size() / 3);
+    expectRefusal(dir, dir.path("cut.vdb"), "", 1, {"cut.vdb", "truncated or damaged"});
+}
+
+TEST(Cli, RefusesATextFileNamedVdb)
+{
+    TempDir dir;
+    std::ofstream(dir.path("notes.vdb")) << "not voxels\n";
+    expectRefusal(dir, dir.path("notes.vdb"), "", 1, {"notes.vdb", "not a readable VDB file"});
+}
+
+TEST(Cli, RefusesAVectorGridAndNamesItsType)
+{
+    TempDir dir;
+    test::writeVectorGridVdb(dir.path("v.vdb"));
+    expectRefusal(dir, dir.path("v.vdb"), "", 1, {"v.vdb", "no scalar float grid", "'velocity' (vec3s)"});
+    expectRefusal(dir, dir.path("v.vdb"), "--grid velocity", 1, {"'velocity' holds vec3s values"});
+}
+
+TEST(Cli, UnknownGridNameListsTheGrids)
+{
+    TempDir dir;
+    expectRefusal(dir, test::realData("vmtk_aorta_ls.vdb"), "--grid density", 1,
+                  {"no grid named 'density'", "'levelset' (float)", "--grid"});
+}
+
+TEST(Cli, RefusesAnEmptyGrid)
+{
+    TempDir dir;
+    test::writeEmptyGridVdb(dir.path("e.vdb"));
+    expectRefusal(dir, dir.path("e.vdb"), "", 1, {"e.vdb", "'empty'", "no active voxels"});
+}
+
+TEST(Cli, RefusesAGridOfNans)
+{
+    TempDir dir;
+    test::writeNanGridVdb(dir.path("n.vdb"));
+    expectRefusal(dir, dir.path("n.vdb"), "", 1, {"n.vdb", "'broken'", "8 NaN or infinite values"});
+}
+
+TEST(Cli, IsovalueThatCrossesNothingGivesTheRange)
+{
+    // The aorta's level set runs from -3.51562 to its background 3.51562 (vdb_print).
+    TempDir dir;
+    expectRefusal(dir, test::realData("vmtk_aorta_ls.vdb"), "--iso 100", 1,
+                  {"isovalue 100 crosses nothing", "-3.51562 to 3.51562"});
+}
+
+TEST(Cli, UnwritableOutputFails)
+{
+    // /proc takes no new files, even from root: the write fails and leaves nothing behind.
+    TempDir dir;
+    const test::CliResult r = runCli("mesh '" + test::realData("ts_common_carotid_artery_left_ls.vdb") +
+                                     "' -o /proc/pipetile_out.ply");
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("/proc/pipetile_out_L0.ply"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists("/proc/pipetile_out_L0.ply"));
+}
+
+TEST(Cli, FailedRunKeepsTheOldOutput)
+{
+    // A good run, then a run that fails before writing: the first run's files are untouched.
+    TempDir dir;
+    const std::string input = test::realData("ts_common_carotid_artery_left_ls.vdb");
+    ASSERT_EQ(runCli("mesh '" + input + "' -o '" + dir.path("m.ply") + "' --levels 1").exitCode, 0);
+    const auto before = std::filesystem::last_write_time(dir.path("m_L0.ply"));
+    EXPECT_EQ(runCli("mesh '" + input + "' -o '" + dir.path("m.ply") + "' --levels 1 --iso 99").exitCode, 1);
+    EXPECT_EQ(std::filesystem::last_write_time(dir.path("m_L0.ply")), before);
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"m_L0.ply"}));
+}
+
+TEST(Cli, SameOutputWithOneThreadAndAllCores)
+{
+    // Byte-identical meshes and the same report numbers (timings aside) for --threads 1 and 2.
+    TempDir dir;
+    ASSERT_EQ(runCli("sample helix -o '" + dir.path("h.vdb") + "'").exitCode, 0);
+    for (const char* threads : {"1", "2"})
+        ASSERT_EQ(runCli("mesh '" + dir.path("h.vdb") + "' -o '" + dir.path(std::string("t") + threads + ".ply") +
+                         "' --report '" + dir.path(std::string("t") + threads + ".json") + "' --threads " + threads)
+                      .exitCode,
+                  0);
+    auto bytes = [](const std::string& path) {
+        std::ifstream in(path, std::ios::binary);
+        return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    };
+    for (int level = 0; level < 4; ++level)
+        EXPECT_EQ(bytes(dir.path("t1_L" + std::to_string(level) + ".ply")), bytes(dir.path("t2_L" + std::to_string(level) + ".ply")));
+    auto numbers = [&](const std::string& path) {
+        nlohmann::json j = readJson(path);
+        j.erase("seconds");
+        j["statistics"].erase("seconds");
+        for (auto& level : j["levels"]) {
+            level.erase("seconds");
+            level.erase("tiling_seconds");
+            level.erase("file");
+        }
+        return j;
+    };
+    EXPECT_EQ(numbers(dir.path("t1.json")), numbers(dir.path("t2.json")));
+}

@@ -2,6 +2,7 @@
 #include <pipetile/multires.h>
 #include <pipetile/validate.h>
 
+#include "phantoms.h"
 #include "test_util.h"
 
 #include <cmath>
@@ -140,4 +141,34 @@ TEST(Multires, AbsurdParametersAreUsageErrors)
     EXPECT_NO_THROW(checkMeshOptions(o));
     o.levels = 15;
     EXPECT_THROW(checkMeshOptions(o), UsageError);
+}
+
+TEST(Multires, TubeCutByTheVolumeEdgeIsStillClosed)
+{
+    // An endless cylinder (radius 8 about (16, 16)) sampled on z in [0, 40): the level set stops at
+    // the grid's faces, where the background (outside) closes the object. The mesh must close too.
+    const Volume v = samples::levelSetFromDistance(
+        [](const glm::dvec3& p) { return std::hypot(p.x - 16.0, p.y - 16.0) - 8.0; }, {32, 32, 40}, 1.0, "cut tube");
+    const Reconstruction r(v, MeshOptions{});
+    EXPECT_EQ(r.stats().tubes, 1);
+    expectClosedSphere(r.buildLevel(3).mesh, 1);
+}
+
+TEST(Multires, EmptySlicesBetweenPiecesStartNewTubes)
+{
+    // Two coaxial capsules with a 10-voxel gap: the slices in the gap hold nothing; each piece is
+    // its own closed tube.
+    const Volume v = samples::levelSetFromDistance(
+        [](const glm::dvec3& p) {
+            auto capsule = [&](double z0, double z1) {
+                const double z = std::clamp(p.z, z0, z1);
+                return std::sqrt((p.x - 16) * (p.x - 16) + (p.y - 16) * (p.y - 16) + (p.z - z) * (p.z - z)) - 6.0;
+            };
+            return std::min(capsule(10.0, 30.0), capsule(50.0, 70.0));
+        },
+        {32, 32, 80}, 1.0, "two pieces");
+    const Reconstruction r(v, MeshOptions{});
+    EXPECT_GT(r.stats().emptySlices, 0);
+    EXPECT_EQ(r.stats().tubes, 2);
+    expectClosedSphere(r.buildLevel(2).mesh, 2);
 }

@@ -2,6 +2,9 @@
 
 #include "phantoms.h"
 
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+
 #include <array>
 #include <cstdio>
 #include <fstream>
@@ -75,5 +78,43 @@ const Volume& cachedSample(const std::string& name)
 }
 
 std::string realData(const std::string& file) { return std::string(PIPETILE_REAL_DATA) + "/" + file; }
+
+namespace {
+void writeGrids(const std::string& path, const openvdb::GridPtrVec& grids)
+{
+    openvdb::initialize();
+    openvdb::io::File file(path);
+    file.write(grids);
+    file.close();
+}
+} // namespace
+
+void writeVectorGridVdb(const std::string& path)
+{
+    openvdb::initialize();
+    auto grid = openvdb::Vec3SGrid::create();
+    grid->setName("velocity");
+    grid->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3s(1, 0, 0));
+    writeGrids(path, {grid});
+}
+
+void writeEmptyGridVdb(const std::string& path)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(3.0f);
+    grid->setName("empty");
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    writeGrids(path, {grid});
+}
+
+void writeNanGridVdb(const std::string& path)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(3.0f);
+    grid->setName("broken");
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    for (int i = 0; i < 8; ++i) grid->tree().setValue(openvdb::Coord(i, 0, 0), std::numeric_limits<float>::quiet_NaN());
+    writeGrids(path, {grid});
+}
 
 } // namespace pipetile::test

@@ -36,4 +36,9 @@ const Volume& cachedSample(const std::string& name);
 /// A real third-party volume from ../shared/data/real.
 std::string realData(const std::string& file);
 
+/// Small broken .vdb files, written with OpenVDB itself, for bad-input tests.
+void writeVectorGridVdb(const std::string& path);  // one Vec3 grid named "velocity"
+void writeEmptyGridVdb(const std::string& path);   // one float level set "empty" without voxels
+void writeNanGridVdb(const std::string& path);     // one float level set "broken" of NaNs
+
 } // namespace pipetile::test
