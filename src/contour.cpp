@@ -207,8 +207,12 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
     return true;
 }
 
+// Casts the rays of `rays` against the loop. With `coarse` (the same loop's contour one level
+// down), only the new rays are cast; the coarse crossings are reused as they are and merged in by
+// their walk positions, which gives exactly what casting every ray would (paper §4.3).
 template <class SampleFn>
-Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SampleFn& field)
+Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SampleFn& field,
+                     const Contour* coarse = nullptr)
 {
     Contour contour;
     contour.center = center;
@@ -235,8 +239,10 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
         rho[i] = std::ldexp(fraction * rays.baseRays, rays.level);
     }
 
-    struct Hit { int ray; CrossingKind kind; double crackT; };
+    struct Hit { int ray; CrossingKind kind; double crackT; int segment; long long along; int old; };
     std::vector<Hit> hits;
+    // Ray x of the coarse level is ray 2x here; only odd rays are new.
+    auto isNew = [&](long x) { return coarse == nullptr || ((x % 2) + 2) % 2 == 1; };
     auto direction = [&](int ray) {
         const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
         return glm::dvec2(std::cos(angle), std::sin(angle));
@@ -258,16 +264,28 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
         if (delta > 0.0) {
             const long last = fb + (rho[j] < rho[i] ? n : 0);
             for (long x = fa + 1; x <= last; ++x) {
+                if (!isNew(x)) continue;
                 const int ray = static_cast<int>(x % n);
-                hits.push_back({ray, CrossingKind::InOut, crackDistance(ray, poly[i], poly[j])});
+                hits.push_back({ray, CrossingKind::InOut, crackDistance(ray, poly[i], poly[j]), static_cast<int>(i), x, -1});
             }
         } else {
             const long last = fb + 1 - (rho[j] > rho[i] ? n : 0);
             for (long x = fa; x >= last; --x) {
+                if (!isNew(x)) continue;
                 const int ray = static_cast<int>(((x % n) + n) % n);
-                hits.push_back({ray, CrossingKind::OutIn, crackDistance(ray, poly[i], poly[j])});
+                hits.push_back({ray, CrossingKind::OutIn, crackDistance(ray, poly[i], poly[j]), static_cast<int>(i), -x, -1});
             }
         }
+    }
+    // Merge the coarse crossings back in walk order: same segment, positions along it doubled.
+    if (coarse) {
+        for (std::size_t k = 0; k < coarse->crossings.size(); ++k) {
+            const Crossing& c = coarse->crossings[k];
+            hits.push_back({2 * c.ray, c.kind, c.crackT, c.segment, 2 * c.along, static_cast<int>(k)});
+        }
+        std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) {
+            return a.segment != b.segment ? a.segment < b.segment : a.along < b.along;
+        });
     }
     // The loop must wind once around the centre: one more InOut than OutIn on every ray.
     std::vector<int> balance(n, 0);
@@ -286,15 +304,23 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
 
     contour.crossings.resize(hits.size());
     std::vector<std::vector<int>> perRay(n);
+    if (coarse) contour.interpolationFallbacks = coarse->interpolationFallbacks;
     for (std::size_t k = 0; k < hits.size(); ++k) {
         Crossing& c = contour.crossings[k];
+        if (hits[k].old >= 0) {
+            c = coarse->crossings[hits[k].old]; // reused: position, depth, everything
+        } else {
+            c.kind = hits[k].kind;
+            c.crackT = hits[k].crackT;
+            perRay[hits[k].ray].push_back(static_cast<int>(k));
+        }
         c.ray = hits[k].ray;
-        c.kind = hits[k].kind;
-        c.crackT = hits[k].crackT;
-        perRay[c.ray].push_back(static_cast<int>(k));
+        c.segment = hits[k].segment;
+        c.along = hits[k].along;
     }
     for (int ray = 0; ray < n; ++ray) {
         std::vector<int>& ids = perRay[ray];
+        if (ids.empty()) continue;
         std::sort(ids.begin(), ids.end(),
                   [&](int a, int b) { return contour.crossings[a].crackT < contour.crossings[b].crackT; });
         for (std::size_t k = 0; k < ids.size(); ++k) contour.crossings[ids[k]].depth = static_cast<int>(k);
@@ -378,6 +404,20 @@ Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySe
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
 {
     return castRaysImpl(loop, center, rays, [&](const glm::dvec2& p) { return image.sample(p); });
+}
+
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane)
+{
+    if (coarse.crossings.empty()) return coarse;
+    return castRaysImpl(loop, coarse.center, RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
+                        [&](const glm::dvec2& p) { return plane.sample(p); }, &coarse);
+}
+
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
+{
+    if (coarse.crossings.empty()) return coarse;
+    return castRaysImpl(loop, coarse.center, RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
+                        [&](const glm::dvec2& p) { return image.sample(p); }, &coarse);
 }
 
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)

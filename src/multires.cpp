@@ -276,7 +276,24 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     if (mTubes.empty())
         throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
                     "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
-    for (const Tube& tube : mTubes) mStats.flatCaps += (tube.bottom.hasApex ? 0 : 1) + (tube.top.hasApex ? 0 : 1);
+    // One cap style for every level, so that levels nest: an apex fan where the end contour is
+    // star-shaped with the finest rays (a ray crossing it more than once would at every finer
+    // level too), ear clipping otherwise.
+    const RaySet finest{options.baseRays, options.levels - 1};
+    for (Tube& tube : mTubes) {
+        for (const bool top : {false, true}) {
+            TubeEnd& end = top ? tube.top : tube.bottom;
+            if (!end.hasApex) continue;
+            const auto [s, l] = top ? tube.members.back() : tube.members.front();
+            const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+            const Contour c = castRays(mLoops[s][l].loop, mLoops[s][l].center, finest, plane);
+            end.fan = !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
+        }
+    }
+    for (const Tube& tube : mTubes) {
+        mStats.flatCaps += (tube.bottom.hasApex ? 0 : 1) + (tube.top.hasApex ? 0 : 1);
+        mStats.clippedCaps += (tube.bottom.fan ? 0 : 1) + (tube.top.fan ? 0 : 1);
+    }
     mStats.slices = static_cast<int>(mPlan.positions.size());
     mStats.tubes = static_cast<int>(mTubes.size());
     mStats.seconds = secondsSince(start);
@@ -287,17 +304,41 @@ LevelMesh Reconstruction::buildLevel(int level) const
     if (level < 0 || level >= mOptions.levels)
         throw UsageError("level " + std::to_string(level) + " is outside 0.." + std::to_string(mOptions.levels - 1));
     const Clock::time_point start = Clock::now();
-    const RaySet rays{mOptions.baseRays, level};
-    LevelMesh result;
-    result.level = level;
-    result.rays = rays.count();
+    LevelMesh result = assemble(castLevel(level), level);
+    result.seconds = secondsSince(start);
+    return result;
+}
 
-    std::vector<std::vector<Contour>> contours(mLoops.size());
+Reconstruction::Contours Reconstruction::castLevel(int level) const
+{
+    const RaySet rays{mOptions.baseRays, level};
+    Contours contours(mLoops.size());
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         if (mLoops[s].empty()) return;
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
         for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.loop, l.center, rays, plane));
     });
+    return contours;
+}
+
+Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse) const
+{
+    Contours contours(mLoops.size());
+    forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
+        if (mLoops[s].empty()) return;
+        const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+        for (std::size_t l = 0; l < mLoops[s].size(); ++l)
+            contours[s].push_back(refineContour(coarse[s][l], mLoops[s][l].loop, plane));
+    });
+    return contours;
+}
+
+LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
+{
+    const RaySet rays{mOptions.baseRays, level};
+    LevelMesh result;
+    result.level = level;
+    result.rays = rays.count();
 
     TriangleMesh& mesh = result.mesh;
     const bool mirrored = mVolume.mirrored();
@@ -312,8 +353,7 @@ LevelMesh Reconstruction::buildLevel(int level) const
     // closed flat by ear clipping, which follows C-shaped and folded sections.
     auto emitCap = [&](const TubeEnd& end, const Contour& c, bool top, bool flip) {
         const std::uint32_t m = static_cast<std::uint32_t>(ids.size());
-        const bool star = countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
-        if (!end.hasApex || !star) {
+        if (!end.fan) {
             std::vector<glm::dvec2> polygon;
             for (const Crossing& x : c.crossings) polygon.push_back(x.point);
             for (Triangle t : earClip(polygon)) {
@@ -386,8 +426,28 @@ LevelMesh Reconstruction::buildLevel(int level) const
             previousIds = ids;
         }
     }
-    result.seconds = secondsSince(start);
     return result;
+}
+
+Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&reconstruction)
+{
+    const Clock::time_point start = Clock::now();
+    mContours = reconstruction.castLevel(0);
+    mMesh = reconstruction.assemble(mContours, 0);
+    mMesh.seconds = secondsSince(start);
+}
+
+const LevelMesh& Refinement::refine()
+{
+    if (!canRefine())
+        throw UsageError("cannot refine past level " + std::to_string(mLevel) + ": the reconstruction has " +
+                         std::to_string(mReconstruction->levelCount()) + " levels");
+    const Clock::time_point start = Clock::now();
+    mContours = mReconstruction->refineContours(mContours);
+    ++mLevel;
+    mMesh = mReconstruction->assemble(mContours, mLevel);
+    mMesh.seconds = secondsSince(start);
+    return mMesh;
 }
 
 } // namespace pipetile

@@ -1,6 +1,7 @@
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
 #include <pipetile/validate.h>
+#include <pipetile/volume.h>
 
 #include "phantoms.h"
 #include "test_util.h"
@@ -171,4 +172,56 @@ TEST(Multires, EmptySlicesBetweenPiecesStartNewTubes)
     EXPECT_GT(r.stats().emptySlices, 0);
     EXPECT_EQ(r.stats().tubes, 2);
     expectClosedSphere(r.buildLevel(2).mesh, 2);
+}
+
+TEST(Multires, RefinementEqualsBuildingFromScratch)
+{
+    // Refining casts only the new rays and reuses the coarse crossings; the result must be the
+    // level built from scratch, vertex for vertex and triangle for triangle, and nest the level
+    // below bit for bit. On analytic phantoms and the real data.
+    std::vector<Volume> volumes = {cachedSample("helix"), cachedSample("bean"), cachedSample("hollow"),
+                                   readVolume(test::realData("vmtk_aorta_ls.vdb")),
+                                   readVolume(test::realData("ts_common_carotid_artery_left_ls.vdb")),
+                                   readVolume(test::realData("cip_cone_vessel_density.vdb"))};
+    for (const Volume& v : volumes) {
+        SCOPED_TRACE(v.source());
+        const Reconstruction r(v, MeshOptions{});
+        Refinement refinement(r);
+        EXPECT_EQ(refinement.mesh().mesh.triangles, r.buildLevel(0).mesh.triangles);
+        while (refinement.canRefine()) {
+            const auto coarse = vertexSet(refinement.mesh().mesh);
+            const LevelMesh& fine = refinement.refine();
+            const LevelMesh scratch = r.buildLevel(refinement.level());
+            EXPECT_EQ(fine.mesh.vertices, scratch.mesh.vertices);
+            EXPECT_EQ(fine.mesh.triangles, scratch.mesh.triangles);
+            const auto fineSet = vertexSet(fine.mesh);
+            for (const auto& p : coarse) EXPECT_EQ(fineSet.count(p), 1u);
+        }
+        EXPECT_THROW(refinement.refine(), UsageError);
+    }
+}
+
+TEST(Multires, EachLevelDoublesTheTrianglesAndDoesNotMoveAway)
+{
+    // Twice the rays: every contour gains as many crossings as it had (or more, where new rays
+    // meet folds), so triangles at least double, less the caps' constant share; and the distance
+    // to the isosurface does not grow.
+    for (const char* name : {"phantom", "helix"}) {
+        SCOPED_TRACE(name);
+        const Volume& v = cachedSample(name);
+        const Reconstruction r(v, MeshOptions{});
+        const Validator validator(v);
+        Refinement refinement(r);
+        Validation previous = validator.validate(refinement.mesh().mesh);
+        std::size_t triangles = refinement.mesh().mesh.triangles.size();
+        while (refinement.canRefine()) {
+            const LevelMesh& next = refinement.refine();
+            EXPECT_GE(next.mesh.triangles.size(), 2 * triangles - 4 * static_cast<std::size_t>(r.stats().tubes));
+            const Validation v2 = validator.validate(next.mesh);
+            EXPECT_LE(v2.symmetric.rms, previous.symmetric.rms);
+            EXPECT_LE(v2.symmetric.max, previous.symmetric.max);
+            previous = v2;
+            triangles = next.mesh.triangles.size();
+        }
+    }
 }

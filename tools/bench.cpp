@@ -90,8 +90,9 @@ int runBench(const BenchArgs& args)
     std::vector<LevelMesh> levels;
     const Timing pipeline = measure(repeat, [&] {
         const Reconstruction r(volume, options);
-        levels.clear();
-        for (int level = 0; level < r.levelCount(); ++level) levels.push_back(r.buildLevel(level));
+        Refinement refinement(r);
+        levels.assign(1, refinement.mesh());
+        while (refinement.canRefine()) levels.push_back(refinement.refine());
     });
 
     // Table 1: the same contours tiled by each tiler (only the tiling is timed).
@@ -123,6 +124,32 @@ int runBench(const BenchArgs& args)
         table1.push_back(row);
     }
     report["table1"] = table1;
+
+    // Refinement (paper §4.3): level L+1 refined from level L against built from scratch.
+    {
+        MeshOptions o = options;
+        o.levels = options.levels + 1;
+        const Reconstruction r(volume, o);
+        std::printf("\n## Refinement: L -> L+1 against L+1 from scratch\n\n| L | refine (s) | scratch (s) | ratio |\n|---|---|---|---|\n");
+        json rows = json::array();
+        for (int level = 0; level + 1 < o.levels; ++level) {
+            std::vector<double> refine, scratch;
+            for (int k = 0; k < repeat; ++k) {
+                Refinement refinement(r);
+                while (refinement.level() < level) refinement.refine();
+                refine.push_back(refinement.refine().seconds);
+                scratch.push_back(r.buildLevel(level + 1).seconds);
+            }
+            std::sort(refine.begin(), refine.end());
+            std::sort(scratch.begin(), scratch.end());
+            const double a = refine[refine.size() / 2], b = scratch[scratch.size() / 2];
+            rows.push_back({{"from", level}, {"refine_seconds", a}, {"scratch_seconds", b}, {"ratio", a / b},
+                            {"refine_min", refine.front()}, {"refine_max", refine.back()},
+                            {"scratch_min", scratch.front()}, {"scratch_max", scratch.back()}});
+            std::printf("| %d | %.5f | %.5f | %.2f |\n", level, a, b, a / b);
+        }
+        report["refinement"] = rows;
+    }
 
     // Peers on the same grid: volumeToMesh uniform and adaptive, and uniform + meshoptimizer.
     TriangleMesh uniform;

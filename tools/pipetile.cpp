@@ -140,9 +140,11 @@ int runMesh(const MeshArgs& args)
                                                        : pipetile::readVolume(args.input, volumeOptions);
     if (args.input.empty() && args.iso) throw pipetile::UsageError("--iso needs an INPUT file");
 
+    // Level 0, then each level refined from the one before (only the new rays are cast).
     const pipetile::Reconstruction reconstruction(volume, options);
-    std::vector<pipetile::LevelMesh> levels;
-    for (int level = 0; level < reconstruction.levelCount(); ++level) levels.push_back(reconstruction.buildLevel(level));
+    pipetile::Refinement refinement(reconstruction);
+    std::vector<pipetile::LevelMesh> levels{refinement.mesh()};
+    while (refinement.canRefine()) levels.push_back(refinement.refine());
 
     // Every level is written only once all of them exist; a failure removes what this run wrote.
     std::vector<std::string> written;
@@ -173,7 +175,7 @@ int runMesh(const MeshArgs& args)
                         {"tubes", stats.tubes}, {"dropped_small_contours", stats.droppedSmall},
                         {"dropped_unwound_contours", stats.droppedUnwound},
                         {"dropped_flat_contours", stats.droppedFlat}, {"end_contours", stats.endContours},
-                        {"flat_caps", stats.flatCaps},
+                        {"flat_caps", stats.flatCaps}, {"clipped_caps", stats.clippedCaps},
                         {"seconds", stats.seconds}}},
         {"levels", json::array()},
     };
@@ -190,6 +192,7 @@ int runMesh(const MeshArgs& args)
             {"vertices", level.mesh.vertices.size()},
             {"triangles", level.mesh.triangles.size()},
             {"seconds", level.seconds},
+            {"built_by", level.level == 0 ? "casting every ray" : "refining the previous level"},
             {"tiling_seconds", level.tilingSeconds},
             {"tiling_bytes", level.tilingBytes},
             {"contours", level.contours},

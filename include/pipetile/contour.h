@@ -71,6 +71,9 @@ struct Crossing {
     double crackT = 0.0;      // distance from the centre to the loop's polygon: fixes order
     double t = 0.0;           // distance from the centre to the interpolated surface: fixes position
     glm::dvec2 point{0.0};    // in-plane position, pixel units
+    int segment = 0;          // walk position: the loop polygon's segment the ray crosses, and
+    long long along = 0;      // the order along it, in this level's ray units (refinement merges
+                              // new crossings into old ones by it)
 };
 
 /// A contour: the crossings of one boundary loop in walk order, starting at the outermost InOut
@@ -103,6 +106,12 @@ bool encloses(const BoundaryLoop& loop, const glm::dvec2& point);
 /// Returns an empty contour if the loop does not wind once around the centre.
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);
+
+/// Refinement (paper §4.3): the same loop's contour at the next level. Only the new rays (between
+/// the coarse ones) are cast; the coarse crossings are kept as they are and the new ones inserted
+/// by walk position. Identical to casting every ray of the next level from scratch.
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane);
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image);
 
 /// Edge type from two consecutive crossings (DESIGN.md, Edge types): integers only.
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount);

@@ -61,7 +61,9 @@ struct ReconstructionStats {
     int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
     int endContours = 0;           // contours added half a voxel inside where a tube ends
     int tubes = 0;                 // chains of corresponding contours, each closed by two caps
-    int flatCaps = 0;              // caps whose apex was not found past the last slice
+    int flatCaps = 0;              // caps with no apex found past the last slice (closed flat)
+    int clippedCaps = 0;           // caps closed flat by ear clipping: no apex, or an end contour
+                                   // that is not star-shaped
     double seconds = 0.0;          // slicing, boundary walks and correspondence
 };
 
@@ -76,16 +78,24 @@ public:
     const ReconstructionStats& stats() const { return mStats; }
     const MeshOptions& options() const { return mOptions; }
 
-    /// Casts the rays of `level` on every contour and tiles all tubes. Thread-safe (const).
+    /// Casts the rays of `level` on every contour and tiles all tubes, from scratch. Thread-safe.
     LevelMesh buildLevel(int level) const;
 
 private:
+    friend class Refinement;
+    using Contours = std::vector<std::vector<Contour>>; // per plane, per loop
+    Contours castLevel(int level) const;
+    Contours refineContours(const Contours& coarse) const;
+    LevelMesh assemble(const Contours& contours, int level) const;
+
     struct SliceLoop {
         BoundaryLoop loop;
         glm::dvec2 center{0.0};
     };
     struct TubeEnd {
         bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
+        bool fan = false;          // fan around the apex: the end contour is star-shaped at the
+                                   // finest level (then at every level, as rays nest)
         glm::dvec3 apexIndex{0.0}; // index-space apex of the cap
     };
     struct Tube {
@@ -101,6 +111,30 @@ private:
     std::vector<std::vector<SliceLoop>> mLoops; // per plane of mPositions
     std::vector<Tube> mTubes;
     ReconstructionStats mStats;
+};
+
+/// Stateful: the contours of the current level, refined in place to the next (paper §4.3). Each
+/// refinement casts only the rays between the current ones, inserts their crossings into the
+/// contours, rebuilds the contour trees (linear in the contour) and tiles. Level L's vertices are
+/// level L+1's, bit for bit, and every level equals Reconstruction::buildLevel of it.
+class Refinement {
+public:
+    /// Builds level 0. The reconstruction must outlive this object.
+    explicit Refinement(const Reconstruction& reconstruction);
+
+    int level() const { return mLevel; }
+    const LevelMesh& mesh() const { return mMesh; }
+    bool canRefine() const { return mLevel + 1 < mReconstruction->levelCount(); }
+
+    /// Moves to the next level and returns its mesh; `seconds` is the refinement's time.
+    /// @throw UsageError past the reconstruction's last level.
+    const LevelMesh& refine();
+
+private:
+    const Reconstruction* mReconstruction;
+    int mLevel = 0;
+    Reconstruction::Contours mContours;
+    LevelMesh mMesh;
 };
 
 /// Checks options against what the machine and the grid can support.
