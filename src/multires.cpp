@@ -296,7 +296,26 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     }
     mStats.slices = static_cast<int>(mPlan.positions.size());
     mStats.tubes = static_cast<int>(mTubes.size());
+    for (const std::vector<SliceLoop>& loops : mLoops)
+        for (const SliceLoop& l : loops)
+            mStats.longestBoundary = std::max(mStats.longestBoundary, static_cast<long long>(l.loop.corners.size()));
+    // Never exhaust the machine: about 100 bytes per crossing of the finest level (vertex, edge
+    // type, tree node, two triangles) while it is built and written.
+    const double crossings = static_cast<double>(mStats.contours + mStats.endContours) *
+                             static_cast<double>(static_cast<long long>(options.baseRays) << (options.levels - 1));
+    constexpr double kBytesPerCrossing = 100.0, kBudget = 8.0 * 1024 * 1024 * 1024;
+    if (crossings * kBytesPerCrossing > kBudget)
+        throw UsageError("--rays " + std::to_string(options.baseRays) + " with --levels " + std::to_string(options.levels) +
+                         " would need about " + std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
+                         " GiB for the finest level (" + std::to_string(mStats.contours) + " contours); lower --levels");
     mStats.seconds = secondsSince(start);
+}
+
+int Reconstruction::finestUsefulLevel() const
+{
+    for (int level = 0; level < mOptions.levels; ++level)
+        if ((static_cast<long long>(mOptions.baseRays) << level) > mStats.longestBoundary) return std::max(level - 1, 0);
+    return mOptions.levels - 1;
 }
 
 LevelMesh Reconstruction::buildLevel(int level) const

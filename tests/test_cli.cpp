@@ -305,3 +305,24 @@ TEST(Cli, SameOutputWithOneThreadAndAllCores)
     };
     EXPECT_EQ(numbers(dir.path("t1.json")), numbers(dir.path("t2.json")));
 }
+
+TEST(Cli, WarnsWhenRaysOutnumberTheBoundaryPixels)
+{
+    // The carotid's sections are about 5 voxels across: boundaries of ~20 cracks. Level 3 of
+    // --rays 16 casts 128 rays: finer than the pixels, so the CLI says so (and still succeeds).
+    TempDir dir;
+    const test::CliResult r = runCli("mesh '" + test::realData("ts_common_carotid_artery_left_ls.vdb") + "' -o '" +
+                                     dir.path("m.ply") + "' --rays 16");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("warning: levels above"), std::string::npos) << r.err;
+}
+
+TEST(Cli, RefusesLevelsThatWouldExhaustMemory)
+{
+    // Slices every 0.1 voxel through the phantom: ~4,900 contours, at 4096 * 2^4 = 65,536 rays
+    // each about 32 GiB for the finest level, beyond the 8 GiB budget: refused before any ray.
+    TempDir dir;
+    const test::CliResult r = runCli("mesh -o '" + dir.path("m.ply") + "' --rays 4096 --levels 5 --spacing 0.1");
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_TRUE(dir.files().empty());
+}

@@ -142,6 +142,10 @@ int runMesh(const MeshArgs& args)
 
     // Level 0, then each level refined from the one before (only the new rays are cast).
     const pipetile::Reconstruction reconstruction(volume, options);
+    if (reconstruction.finestUsefulLevel() < reconstruction.levelCount() - 1)
+        std::fprintf(stderr, "pipetile: warning: levels above %d cast more rays than the longest boundary has pixels (%lld); "
+                             "they add vertices but no detail (lower --levels or --rays)\n",
+                     reconstruction.finestUsefulLevel(), reconstruction.stats().longestBoundary);
     pipetile::Refinement refinement(reconstruction);
     std::vector<pipetile::LevelMesh> levels{refinement.mesh()};
     while (refinement.canRefine()) levels.push_back(refinement.refine());

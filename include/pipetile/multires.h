@@ -64,14 +64,21 @@ struct ReconstructionStats {
     int flatCaps = 0;              // caps with no apex found past the last slice (closed flat)
     int clippedCaps = 0;           // caps closed flat by ear clipping: no apex, or an end contour
                                    // that is not star-shaped
+    long long longestBoundary = 0; // cracks in the longest boundary loop: rays beyond about this
+                                   // many per contour meet the same pixels again and add no detail
     double seconds = 0.0;          // slicing, boundary walks and correspondence
 };
 
 /// Stateful: holds the slices' boundary loops and the tubes; builds any level on request.
 class Reconstruction {
 public:
-    /// @throw UsageError for parameters out of range; Error if no slice crosses the object.
+    /// @throw UsageError for parameters out of range, or levels whose meshes would not fit in
+    ///        memory (estimated from the contours found); Error if no slice crosses the object.
     Reconstruction(const Volume& volume, const MeshOptions& options);
+
+    /// The finest level whose rays are still no denser than the boundary's pixels (levels above it
+    /// add vertices but no detail), or levelCount() - 1 if all are.
+    int finestUsefulLevel() const;
 
     int levelCount() const { return mOptions.levels; }
     const SlicePlan& plan() const { return mPlan; }
