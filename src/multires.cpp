@@ -268,14 +268,6 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
         }
     }
-    // A lone contour with no apex on either side would be closed by the same flat fan twice:
-    // it encloses nothing, so it is dropped (and counted) rather than meshed as a flat pillow.
-    const auto pillow = [](const Tube& t) { return t.members.size() == 1 && !t.bottom.hasApex && !t.top.hasApex; };
-    mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
-    mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
-    if (mTubes.empty())
-        throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
-                    "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
     // One cap style for every level, so that levels nest: an apex fan where the end contour is
     // star-shaped with the finest rays (a ray crossing it more than once would at every finer
     // level too), ear clipping otherwise.
@@ -290,6 +282,14 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             end.fan = !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
         }
     }
+    // A lone contour closed flat on both sides would get the same triangles twice: it encloses
+    // nothing, so it is dropped (and counted) rather than meshed as a flat pillow.
+    const auto pillow = [](const Tube& t) { return t.members.size() == 1 && !t.bottom.fan && !t.top.fan; };
+    mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
+    mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
+    if (mTubes.empty())
+        throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
+                    "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
     for (const Tube& tube : mTubes) {
         mStats.flatCaps += (tube.bottom.hasApex ? 0 : 1) + (tube.top.hasApex ? 0 : 1);
         mStats.clippedCaps += (tube.bottom.fan ? 0 : 1) + (tube.top.fan ? 0 : 1);

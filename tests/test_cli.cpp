@@ -326,3 +326,22 @@ TEST(Cli, RefusesLevelsThatWouldExhaustMemory)
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_TRUE(dir.files().empty());
 }
+
+TEST(Cli, MeshesTheRealSmokeAsManyClosedPieces)
+{
+    // Not a pipe at all: a fog of many blobs. Every piece is its own closed tube, so each level is
+    // closed, manifold and oriented, with one component and Euler characteristic 2 per tube.
+    TempDir dir;
+    const test::CliResult r = runCli("mesh '" + test::realData("gaffer_smoke_fog.vdb") + "' -o '" + dir.path("s.ply") +
+                                     "' --report '" + dir.path("s.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json j = readJson(dir.path("s.json"));
+    const int tubes = j["statistics"]["tubes"].get<int>();
+    EXPECT_GT(tubes, 10);
+    for (const auto& level : j["levels"]) {
+        const Topology t = checkTopology(readMesh(level["file"].get<std::string>()));
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+        EXPECT_EQ(t.components, tubes);
+        EXPECT_EQ(t.euler, 2 * tubes);
+    }
+}
