@@ -52,16 +52,26 @@ template <class InsideFn, class ValueFn>
 std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& value,
                                      const std::vector<glm::ivec2>& eastCracks, glm::ivec2 boxMin, glm::ivec2 boxMax)
 {
-    const int width = boxMax.x - boxMin.x + 2, height = boxMax.y - boxMin.y + 2;
-    std::vector<std::uint8_t> visited(static_cast<std::size_t>(width) * height, 0);
-    auto mark = [&](glm::ivec2 p) -> std::uint8_t& {
-        return visited[static_cast<std::size_t>(p.y - boxMin.y) * width + (p.x - boxMin.x)];
-    };
-    const std::size_t maxCorners = 4 * static_cast<std::size_t>(width) * height + 4;
-
     std::vector<BoundaryLoop> loops;
+    if (eastCracks.empty()) return loops;
+    // Visited seeds, on a bitmap over the seeds' own box: it stays small however large the plane
+    // (two small objects far apart), and a walk only needs to mark the seeds it passes.
+    glm::ivec2 lo = eastCracks.front(), hi = eastCracks.front();
+    for (const glm::ivec2& p : eastCracks) { lo = glm::min(lo, p); hi = glm::max(hi, p); }
+    const int width = hi.x - lo.x + 1, height = hi.y - lo.y + 1;
+    std::vector<std::uint8_t> visited(static_cast<std::size_t>(width) * height, 0);
+    auto seen = [&](glm::ivec2 p) {
+        return p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y &&
+               visited[static_cast<std::size_t>(p.y - lo.y) * width + (p.x - lo.x)];
+    };
+    auto mark = [&](glm::ivec2 p) {
+        if (p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y)
+            visited[static_cast<std::size_t>(p.y - lo.y) * width + (p.x - lo.x)] = 1;
+    };
+    const std::size_t maxCorners = 4 * static_cast<std::size_t>(boxMax.x - boxMin.x + 2) * (boxMax.y - boxMin.y + 2) + 4;
+
     for (const glm::ivec2& seed : eastCracks) {
-        if (mark(seed)) continue;
+        if (seen(seed)) continue;
         BoundaryLoop loop;
         const glm::ivec2 start(seed.x + 1, seed.y); // the crack east of `seed`, walked north
         glm::ivec2 c = start;
@@ -74,7 +84,7 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             const double fin = value(in.x, in.y), fout = value(out.x, out.y);
             const double s = fin < fout ? std::clamp(fin / (fin - fout), 0.0, 1.0) : 0.5;
             loop.points.push_back(glm::dvec2(in) + s * glm::dvec2(out - in));
-            if (d == 1) mark(c + kLeft[1]) = 1; // its left pixel is the seed it would start from
+            if (d == 1) mark(c + kLeft[1]); // its left pixel is the seed it would start from
             c += kStep[d];
             const bool aheadRight = inside(c.x + kLeft[(d + 3) % 4].x, c.y + kLeft[(d + 3) % 4].y);
             const bool aheadLeft = inside(c.x + kLeft[d].x, c.y + kLeft[d].y);

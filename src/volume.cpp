@@ -218,6 +218,15 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     // constant active tiles inside); voxelizing a copy keeps the caller's grid untouched.
     openvdb::FloatGrid::ConstPtr grid = input;
     if (input->tree().activeTileCount() > 0) {
+        // Voxelizing costs memory per voxel of every tile: refuse what would not fit.
+        constexpr openvdb::Index64 kMaxTileVoxels = openvdb::Index64(1) << 28; // ~1 GiB of floats
+        openvdb::Index64 tileVoxels = 0;
+        for (auto it = input->cbeginValueOn(); it && tileVoxels <= kMaxTileVoxels; ++it)
+            if (!it.isVoxelValue()) tileVoxels += it.getVoxelCount();
+        if (tileVoxels > kMaxTileVoxels)
+            throw Error(where + ": its active tiles cover more than " + std::to_string(kMaxTileVoxels) +
+                        " voxels; pipetile voxelizes them to find the surface: clip the grid to the object or "
+                        "deactivate the constant regions first");
         openvdb::FloatGrid::Ptr copy = input->deepCopy();
         copy->tree().voxelizeActiveTiles();
         grid = copy;

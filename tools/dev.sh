@@ -14,6 +14,8 @@ if ! dpkg -s "${packages[@]}" >/dev/null 2>&1; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q "${packages[@]}"
 fi
 
+# ccache may serve any clone of the repository: paths relative to its root, build folder unhashed.
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true
 build=${PIPETILE_BUILD_DIR:-build}
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 case "${1:-demo}" in
