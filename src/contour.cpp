@@ -257,9 +257,15 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
         const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
         return glm::dvec2(std::cos(angle), std::sin(angle));
     };
+    // Distance along the ray to where it meets segment ab: solve for the point on the segment and
+    // clamp it there, so a ray running along the segment (a near-zero cross product) still meets
+    // it on the segment and not somewhere on its line far away.
     auto crackDistance = [&](int ray, const glm::dvec2& a, const glm::dvec2& b) {
-        const glm::dvec2 d = direction(ray), e = b - a, ac = a - center;
-        return (ac.x * e.y - ac.y * e.x) / (d.x * e.y - d.y * e.x);
+        const glm::dvec2 d = direction(ray), e = b - a, ca = center - a;
+        const double denominator = e.x * d.y - e.y * d.x;
+        const double s = denominator != 0.0 ? std::clamp((ca.x * d.y - ca.y * d.x) / denominator, 0.0, 1.0) : 0.5;
+        const glm::dvec2 p = a + s * e - center;
+        return p.x * d.x + p.y * d.y;
     };
     // Ray x is crossed where the walk passes from rho < x to rho >= x (forward, InOut) or back
     // (backward, OutIn); a corner exactly on a ray counts on the >= side, so no crossing is lost

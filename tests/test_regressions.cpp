@@ -1,0 +1,255 @@
+// Regression tests for what fuzzing and the sanitizer builds found (fuzz/, .ci/fuzz.sh,
+// .ci/sanitize.sh). Each test names its reproducer; inputs the fuzzers found are kept in
+// fuzz/corpus_regressions/ and are replayed by .ci/fuzz.sh as well.
+
+#include <pipetile/contour.h>
+#include <pipetile/contour_tree.h>
+#include <pipetile/error.h>
+#include <pipetile/multires.h>
+#include <pipetile/tiler.h>
+#include <pipetile/volume_grid.h>
+
+#include <gtest/gtest.h>
+
+#include <glm/geometric.hpp>
+
+#include <openvdb/tools/LevelSetSphere.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+using namespace pipetile;
+
+#if defined(__SANITIZE_ADDRESS__)
+#define PIPETILE_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define PIPETILE_TEST_ASAN 1
+#endif
+#endif
+
+namespace {
+
+// Inputs found by the fuzzers: fuzz/corpus_regressions/<fuzzer>/<name>.
+std::string fuzzInput(const std::string& fuzzer, const std::string& name)
+{
+    return (std::filesystem::path(__FILE__).parent_path().parent_path() / "fuzz" / "corpus_regressions" / fuzzer / name)
+        .string();
+}
+
+// The image an input of fuzz_contour describes (layout in fuzz/fuzz_contour.cpp): bytes 0 and 1
+// give width - 1 and height - 1 (mod 32), byte 2 the rays and flags, byte 3 the origin, then one
+// byte per pixel, int8 / 8 (or -1 / +1 with flag 0x80); missing pixels read +1.
+struct FuzzImage {
+    FieldImage image;
+    int baseRays = 3;
+    bool alsoFromCentroid = false;
+};
+
+FuzzImage readFuzzImage(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<std::uint8_t> d((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    auto at = [&](std::size_t i) -> std::uint8_t { return i < d.size() ? d[i] : 0; };
+    FuzzImage f;
+    f.image.width = 1 + at(0) % 32;
+    f.image.height = 1 + at(1) % 32;
+    f.baseRays = 3 + (at(2) & 7) % 6;
+    f.alsoFromCentroid = at(2) & 0x40;
+    const bool binary = at(2) & 0x80;
+    f.image.origin = glm::ivec2((at(3) & 15) - 8, (at(3) >> 4) - 8);
+    f.image.values.resize(static_cast<std::size_t>(f.image.width) * f.image.height);
+    for (std::size_t i = 0; i < f.image.values.size(); ++i) {
+        const auto byte = static_cast<std::int8_t>(at(4 + i));
+        f.image.values[i] = 4 + i >= d.size() ? 1.0 : binary ? (byte < 0 ? -1.0 : 1.0) : byte / 8.0;
+    }
+    return f;
+}
+
+// Runs `body` under a time limit and, if `addressSpaceBytes` > 0, an address-space limit, then
+// exits: 0 when `body` returns or throws pipetile::Error, which is what a small input must get;
+// 3 for any other exception. Out of memory and the time limit end the process otherwise.
+[[noreturn]] void runLimited(unsigned seconds, std::size_t addressSpaceBytes, const std::function<void()>& body)
+{
+    if (addressSpaceBytes > 0) {
+        const rlimit limit{rlim_t(addressSpaceBytes), rlim_t(addressSpaceBytes)};
+        setrlimit(RLIMIT_AS, &limit);
+    }
+    alarm(seconds);
+    try {
+        body();
+    } catch (const pipetile::Error&) {
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "escaped: %s\n", e.what());
+        std::_Exit(3);
+    }
+    std::_Exit(0);
+}
+
+// Runs `body` in a child process, a fresh copy of this test binary (so no TBB threads are
+// inherited), under runLimited; anything but exit code 0 fails the calling test.
+void expectErrorOrSuccessWithin(unsigned seconds, std::size_t addressSpaceBytes, const std::function<void()>& body)
+{
+    GTEST_FLAG_SET(death_test_style, "threadsafe");
+    EXPECT_EXIT(runLimited(seconds, addressSpaceBytes, body), testing::ExitedWithCode(0), "")
+        << "a small input must be meshed or refused with pipetile::Error within " << seconds << " s";
+}
+
+} // namespace
+
+TEST(Regressions, RayThroughAPinchOfTheBoundaryStillTilesAClosedStrip)
+{
+    // fuzz_contour: a 20 x 20 graded image whose pixels of value exactly 0 put marching-squares
+    // points on their centres, so the polygon of loop 0 touches itself there; ray 0 from the
+    // central point (2, 6) passes through that point and meets an InOut and an OutIn crossing at
+    // t = 11, ordered by a rounding difference of 2e-15 (OutIn last). The order there is not
+    // defined, but the contour must still wind once, give a tree and a closed strip.
+    const FuzzImage f = readFuzzImage(fuzzInput("contour", "ray_through_pinch_of_polygon"));
+    const std::vector<BoundaryLoop> loops = traceBoundaries(f.image);
+    ASSERT_FALSE(loops.empty());
+    int wound = 0;
+    for (const BoundaryLoop& loop : loops) {
+        std::vector<glm::dvec2> centers{centralPoint(loop)};
+        if (f.alsoFromCentroid) centers.push_back(loop.centroid);
+        for (const glm::dvec2& center : centers)
+            for (int level = 0; level < 4; ++level) {
+                const RaySet rays{f.baseRays, level};
+                const Contour c = castRays(loop, center, rays, f.image);
+                if (c.crossings.empty()) continue;
+                ++wound;
+                // A contour that winds once: #F - #B is the ray count.
+                EXPECT_EQ(countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward), rays.count());
+                const ContourTree tree(contourString(c));
+                // A band of a contour with itself: m + m triangles.
+                EXPECT_EQ(tileBand(tree, tree).size(), 2 * c.crossings.size());
+            }
+    }
+    // Loop 0 from its central point at each of the 4 levels, at least.
+    EXPECT_GE(wound, 4);
+}
+
+TEST(Regressions, RayAlongAPolygonSegmentCrossesItOnTheSegment)
+{
+    // fuzz_contour: a binary image (24 x 32 at origin (7, 7)) whose loop 0 has its centroid
+    // (18.4, 9.1) inside, so that is its central point. With 4 base rays, level 1, ray 3 (135
+    // degrees) runs along the line u + v = 27.5, and so does the marching-squares segment
+    // (16.5, 11) - (16, 11.5) that cuts the corner of the outside pixel (16, 11). castRays
+    // (src/contour.cpp, crackDistance) intersects the ray with that segment's line by dividing by
+    // their cross product, rounding noise here: crackT comes out as 16, far past the loop (whose
+    // farthest point is about 12 from the centre), the crossing is ordered last on its ray (kinds
+    // InOut, InOut, OutIn instead of alternating), and with no sign change near t = 16 the vertex
+    // is left there, in empty space: a spike in the mesh. The same ray at levels 2 and 3.
+    const FuzzImage f = readFuzzImage(fuzzInput("contour", "ray_along_polygon_segment"));
+    const std::vector<BoundaryLoop> loops = traceBoundaries(f.image);
+    ASSERT_FALSE(loops.empty());
+    const BoundaryLoop& loop = loops[0];
+    const glm::dvec2 center = centralPoint(loop);
+    double reach = 0.0; // the loop's polygon lies within this distance of the centre
+    for (const glm::dvec2& p : loop.points) reach = std::max(reach, glm::length(p - center));
+    for (int level = 0; level < 4; ++level) {
+        const RaySet rays{f.baseRays, level};
+        const Contour c = castRays(loop, center, rays, f.image);
+        ASSERT_FALSE(c.crossings.empty()) << "level " << level;
+        std::vector<std::vector<Crossing>> perRay(rays.count());
+        for (const Crossing& x : c.crossings) {
+            // crackT is the distance to the loop's polygon along the ray.
+            EXPECT_LE(x.crackT, reach) << "level " << level << ", ray " << x.ray;
+            perRay[x.ray].push_back(x);
+        }
+        // From the centre outward each ray leaves, enters, leaves, ...: InOut, OutIn, ..., InOut,
+        // except where two crossings coincide (the ray meets the polygon where it runs along it,
+        // or where it touches itself): there their order is not defined.
+        for (std::vector<Crossing>& xs : perRay) {
+            std::sort(xs.begin(), xs.end(), [](const Crossing& a, const Crossing& b) { return a.crackT < b.crackT; });
+            bool ties = false;
+            for (std::size_t k = 1; k < xs.size(); ++k) ties |= xs[k].crackT - xs[k - 1].crackT <= 1e-9 * xs[k].crackT;
+            for (std::size_t k = 0; k < xs.size() && !ties; ++k)
+                EXPECT_EQ(xs[k].kind == CrossingKind::InOut, k % 2 == 0)
+                    << "level " << level << ", ray " << xs[k].ray << ", crossing " << k
+                    << " from the centre should be " << (k % 2 == 0 ? "InOut" : "OutIn");
+        }
+    }
+}
+
+TEST(Regressions, OneHugeActiveTileIsRefusedNotVoxelized)
+{
+#ifdef PIPETILE_TEST_ASAN
+    GTEST_SKIP() << "an address-space limit cannot be combined with AddressSanitizer's shadow memory";
+#else
+    // fuzz_vdb ran out of memory on fuzz/corpus_regressions/vdb/active_tiles_voxelized_oom.vdb
+    // (the fog seed with mutated tile flags); this is the same failure, at its largest. A valid
+    // fog volume of about 10 KB: one active root tile of density 1 (4096^3 = 6.9e10 voxels) beside
+    // one leaf with a ramp. volumeFromGrid (src/volume.cpp) voxelizes every active tile, which
+    // needs about 300 GB here; the allocation failure escapes as std::bad_alloc, not Error (and
+    // without a limit the process takes all the machine's memory first). Refusing such grids with
+    // an Error, or meshing them without voxelizing the tile's interior, both pass: 4 GiB of
+    // address space are plenty for either.
+    expectErrorOrSuccessWithin(60, std::size_t(4) << 30, [] {
+        openvdb::initialize();
+        openvdb::FloatGrid::Ptr fog = openvdb::FloatGrid::create(0.0f);
+        fog->setName("density");
+        fog->setGridClass(openvdb::GRID_FOG_VOLUME);
+        fog->tree().addTile(3, openvdb::Coord(4096, 0, 0), 1.0f, true);
+        auto acc = fog->getAccessor();
+        for (int x = 0; x < 8; ++x)
+            for (int y = 0; y < 8; ++y)
+                for (int z = 0; z < 8; ++z) acc.setValueOn(openvdb::Coord(x, y, z), x / 8.0f);
+        const Volume volume = volumeFromGrid(fog, {}, "huge-tile");
+        MeshOptions options;
+        options.levels = 2;
+        options.baseRays = 4;
+        const Reconstruction reconstruction(volume, options);
+        reconstruction.buildLevel(1);
+    });
+#endif
+}
+
+TEST(Regressions, BallsFarApartMeshQuicklyOrAreRefused)
+{
+    // Found while looking at fuzz_vdb's slow inputs; reproducer built here. A valid level set of two balls of radius 4 whose
+    // centres are 10^6 voxels apart in x and y (a 100 KB file). Reconstruction slices the whole
+    // active bounding box: 5e5 slices, and traceBoundaries (src/contour.cpp, traceLoops) allocates
+    // and clears a visited flag for every pixel of the plane's box, 1e6 x 16, on each of them:
+    // about 8e12 byte writes, hours of work for two tiny balls (1e5 apart already takes 3.5 s in
+    // a release build). Meshing in seconds (skipping slabs without leaf nodes, a sparse visited
+    // set) or refusing the grid with an Error both pass.
+    expectErrorOrSuccessWithin(30, 0, [] {
+        openvdb::initialize();
+        auto a = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(4.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+        auto b = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(4.0f, openvdb::Vec3f(1e6f, 1e6f, 0.0f), 1.0f, 3.0f);
+        a->tree().merge(b->tree());
+        a->setName("balls");
+        const Volume volume = volumeFromGrid(a, {}, "far-apart-balls");
+        MeshOptions options;
+        options.levels = 2;
+        options.baseRays = 4;
+        options.threads = 1;
+        const Reconstruction reconstruction(volume, options);
+        reconstruction.buildLevel(1);
+    });
+}
+
+TEST(Regressions, AbsurdBloscChunkSizeIsAnError)
+{
+#ifdef PIPETILE_TEST_ASAN
+    GTEST_SKIP() << "under AddressSanitizer operator new aborts on the 140 TB request instead of throwing";
+#else
+    // fuzz_vdb, from the blosc seed: the size of a compressed leaf buffer reads 0x7ffd93b2f9c0
+    // bytes. OpenVDB's bloscFromStream allocates that much before reading; the allocation fails
+    // and readVolume reports the file as damaged.
+    EXPECT_THROW(readVolume(fuzzInput("vdb", "blosc_huge_compressed_size.vdb")), Error);
+#endif
+}
