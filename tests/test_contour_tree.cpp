@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util.h"
+
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 #include <glm/vec4.hpp>
@@ -18,54 +20,9 @@ namespace {
 
 ContourString parse(const std::string& s, std::vector<int> depth = {})
 {
-    std::vector<EdgeType> edges;
-    std::size_t i = 0;
-    while (i < s.size()) {
-        std::size_t j = s.find(' ', i);
-        if (j == std::string::npos) j = s.size();
-        const std::string token = s.substr(i, j - i);
-        static const std::map<std::string, EdgeType> types = {
-            {"F", EdgeType::Forward}, {"B", EdgeType::Backward}, {"D_I", EdgeType::DownIn},
-            {"D_O", EdgeType::DownOut}, {"U_I", EdgeType::UpIn}, {"U_O", EdgeType::UpOut}};
-        edges.push_back(types.at(token));
-        i = j + 1;
-    }
-    ContourString c = stringOfEdges(edges);
+    ContourString c = stringOfEdges(test::parseEdges(s));
     if (!depth.empty()) c.depth = depth;
     return c;
-}
-
-// A closed strip of m + n triangles: each contour edge in one triangle, consecutive triangles
-// sharing one spanning edge.
-bool isClosedStrip(const std::vector<Triangle>& band, std::uint32_t m, std::uint32_t n)
-{
-    if (band.size() != m + n) return false;
-    std::map<std::pair<std::uint32_t, std::uint32_t>, int> contourEdges;
-    auto spanning = [&](const Triangle& t) {
-        std::set<std::pair<std::uint32_t, std::uint32_t>> s;
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-            if ((a < m) != (b < m)) s.insert({std::min(a, b), std::max(a, b)});
-            else ++contourEdges[{a, b}];
-        }
-        return s;
-    };
-    for (std::size_t k = 0; k < band.size(); ++k) {
-        const auto s = spanning(band[k]);
-        const auto next = spanning(band[(k + 1) % band.size()]);
-        contourEdges.clear(); // counted below, once per triangle
-        int shared = 0;
-        for (const auto& e : s) shared += static_cast<int>(next.count(e));
-        if (shared != 1) return false;
-    }
-    for (const Triangle& t : band)
-        for (int k = 0; k < 3; ++k)
-            if ((t[k] < m) == (t[(k + 1) % 3] < m)) ++contourEdges[{t[k], t[(k + 1) % 3]}];
-    for (std::uint32_t i = 0; i < m; ++i)
-        if (contourEdges[{i, (i + 1) % m}] != 1) return false;
-    for (std::uint32_t j = 0; j < n; ++j)
-        if (contourEdges[{m + (j + 1) % n, m + j}] != 1) return false;
-    return contourEdges.size() == m + n;
 }
 
 ContourString rotate(const ContourString& c, int by)
@@ -206,9 +163,9 @@ TEST(ContourTree, RandomNonStarSectionsTileAsClosedStrips)
         ambiguous += ta.ambiguousSectors() > 0 ? 1 : 0;
         nonStar += ca.crossings.size() > static_cast<std::size_t>(rays.count()) ? 1 : 0;
         const std::uint32_t m = static_cast<std::uint32_t>(ca.crossings.size()), n = static_cast<std::uint32_t>(cb.crossings.size());
-        ASSERT_TRUE(isClosedStrip(tileBand(ta, tb), m, n)) << "trial " << trial;
+        ASSERT_TRUE(test::isClosedStrip(tileBand(ta, tb), m, n)) << "trial " << trial;
         const std::vector<Triangle> self = tileBand(ta, ta);
-        ASSERT_TRUE(isClosedStrip(self, m, m)) << "trial " << trial;
+        ASSERT_TRUE(test::isClosedStrip(self, m, m)) << "trial " << trial;
         for (std::uint32_t i = 0; i < m; ++i) {
             // Identical contours: a quad between crossings i, i+1 of both, for every i.
             const std::uint32_t s = static_cast<std::uint32_t>(ta.startCrossing());

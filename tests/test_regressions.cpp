@@ -253,3 +253,17 @@ TEST(Regressions, AbsurdBloscChunkSizeIsAnError)
     EXPECT_THROW(readVolume(fuzzInput("vdb", "blosc_huge_compressed_size.vdb")), Error);
 #endif
 }
+
+TEST(Regressions, AbsurdMetadataSizesAreAnErrorEvenShortOfMemory)
+{
+#ifdef PIPETILE_TEST_ASAN
+    GTEST_SKIP() << "an address-space limit cannot be combined with AddressSanitizer's shadow memory";
+#else
+    // fuzz_vdb: a 5.7 KB file whose grid metadata declares string values of hundreds of MB each.
+    // OpenVDB resizes, and zero-fills, a std::string to each declared length before reading it
+    // (TypedMetadata<std::string>::readValue), so readVolume peaks at about 3 GB and 3.6 s before
+    // it reports the file as damaged. Until that is bounded, pin the answer under a memory limit
+    // of 1 GiB: the allocations fail and readVolume still throws pipetile::Error.
+    expectErrorOrSuccessWithin(30, std::size_t(1) << 30, [] { readVolume(fuzzInput("vdb", "metadata_sizes_3gb.vdb")); });
+#endif
+}

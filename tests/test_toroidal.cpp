@@ -5,6 +5,8 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include "test_util.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -17,41 +19,6 @@ using namespace pipetile;
 namespace {
 
 constexpr double pi = 3.14159265358979323846;
-
-// Acceptable surface (toroidal graph sense), as in test_tiler.cpp: every triangle has one contour
-// edge and one vertex on the other contour; every contour edge is used exactly once; consecutive
-// triangles share a spanning edge, and the last shares one with the first (a closed strip).
-void expectClosedStrip(const std::vector<Triangle>& band, std::uint32_t m, std::uint32_t n)
-{
-    ASSERT_EQ(band.size(), m + n);
-    std::map<std::pair<std::uint32_t, std::uint32_t>, int> contourEdges;
-    for (const Triangle& t : band) {
-        int onA = 0;
-        for (std::uint32_t v : t) onA += v < m ? 1 : 0;
-        ASSERT_TRUE(onA == 1 || onA == 2);
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-            if ((a < m) == (b < m)) ++contourEdges[{a, b}];
-        }
-    }
-    EXPECT_EQ(contourEdges.size(), m + n);
-    for (std::uint32_t i = 0; i < m; ++i) EXPECT_EQ((contourEdges[{i, (i + 1) % m}]), 1);
-    for (std::uint32_t j = 0; j < n; ++j) EXPECT_EQ((contourEdges[{m + (j + 1) % n, m + j}]), 1);
-    auto spanning = [&](const Triangle& t) {
-        std::set<std::pair<std::uint32_t, std::uint32_t>> s;
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-            if ((a < m) != (b < m)) s.insert({std::min(a, b), std::max(a, b)});
-        }
-        return s;
-    };
-    for (std::size_t k = 0; k < band.size(); ++k) {
-        const auto s = spanning(band[k]), next = spanning(band[(k + 1) % band.size()]);
-        int shared = 0;
-        for (const auto& e : s) shared += static_cast<int>(next.count(e));
-        EXPECT_EQ(shared, 1) << "triangles " << k << " and " << (k + 1) % band.size();
-    }
-}
 
 // n points counterclockwise seen from +z on a circle around the z axis, the first at `phase`.
 std::vector<glm::dvec3> circle(std::size_t n, double radius, double z, double phase = 0.0)
@@ -187,7 +154,7 @@ TEST(Toroidal, BothTilersGiveClosedStripsOfMPlusNTrianglesWithOutwardNormals)
             const auto a = circle(m, 5.0, 0.0), b = circle(n, 6.0, 2.0, twist);
             const std::uint32_t mm = static_cast<std::uint32_t>(m), nn = static_cast<std::uint32_t>(n);
             for (const auto& band : {tileOptimal(a, b), tileGreedy(a, b)}) {
-                expectClosedStrip(band, mm, nn);
+                EXPECT_TRUE(test::isClosedStrip(band, mm, nn));
                 // Both circles wind counterclockwise around +z: outward means away from the axis.
                 for (const Triangle& t : band) {
                     const glm::dvec3 p = vertex(t[0], a, b), q = vertex(t[1], a, b), r = vertex(t[2], a, b);
@@ -204,8 +171,8 @@ TEST(Toroidal, BothTilersGiveClosedStripsOfMPlusNTrianglesWithOutwardNormals)
     const double turn = 2.0 * pi / 72.0;
     for (const glm::dvec3& p : a)
         b.push_back({p.x * std::cos(turn) - p.y * std::sin(turn), p.x * std::sin(turn) + p.y * std::cos(turn), 1.5});
-    expectClosedStrip(tileOptimal(a, b), 24, 24);
-    expectClosedStrip(tileGreedy(a, b), 24, 24);
+    EXPECT_TRUE(test::isClosedStrip(tileOptimal(a, b), 24, 24));
+    EXPECT_TRUE(test::isClosedStrip(tileGreedy(a, b), 24, 24));
 }
 
 TEST(Toroidal, OptimalMatchesExhaustiveSearchOnTinyContours)
@@ -220,7 +187,7 @@ TEST(Toroidal, OptimalMatchesExhaustiveSearchOnTinyContours)
                 const auto a = randomContour(m, 0.0, rng), b = randomContour(n, 2.0, rng);
                 const double exhaustive = exhaustiveMinimumArea(a, b);
                 const auto optimal = tileOptimal(a, b);
-                expectClosedStrip(optimal, static_cast<std::uint32_t>(m), static_cast<std::uint32_t>(n));
+                EXPECT_TRUE(test::isClosedStrip(optimal, static_cast<std::uint32_t>(m), static_cast<std::uint32_t>(n)));
                 EXPECT_NEAR(bandArea(optimal, a, b), exhaustive, 1e-9 * exhaustive);
                 EXPECT_GE(bandArea(tileGreedy(a, b), a, b), exhaustive * (1.0 - 1e-12));
             }
@@ -254,7 +221,7 @@ TEST(Toroidal, OptimalAreaIsNoMoreThanGreedyOrTheStarBand)
             const double optimal = bandArea(tileOptimal(a, b), a, b);
             const std::vector<EdgeType> star(n, EdgeType::Forward);
             const auto band = tileBand(star, star);
-            expectClosedStrip(band, static_cast<std::uint32_t>(n), static_cast<std::uint32_t>(n));
+            EXPECT_TRUE(test::isClosedStrip(band, static_cast<std::uint32_t>(n), static_cast<std::uint32_t>(n)));
             EXPECT_LE(optimal, bandArea(band, a, b) * (1.0 + 1e-12));
             EXPECT_LE(optimal, bandArea(tileGreedy(a, b), a, b) * (1.0 + 1e-12));
         }

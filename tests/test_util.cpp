@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <set>
 #include <mutex>
 #include <random>
 #include <sstream>
@@ -79,15 +80,59 @@ const Volume& cachedSample(const std::string& name)
 
 std::string realData(const std::string& file) { return std::string(PIPETILE_REAL_DATA) + "/" + file; }
 
-namespace {
-void writeGrids(const std::string& path, const openvdb::GridPtrVec& grids)
+std::vector<EdgeType> parseEdges(const std::string& names)
+{
+    static const std::map<std::string, EdgeType> types = {
+        {"F", EdgeType::Forward}, {"B", EdgeType::Backward}, {"D_I", EdgeType::DownIn},
+        {"D_O", EdgeType::DownOut}, {"U_I", EdgeType::UpIn}, {"U_O", EdgeType::UpOut}};
+    std::vector<EdgeType> edges;
+    std::istringstream in(names);
+    for (std::string token; in >> token;) edges.push_back(types.at(token));
+    return edges;
+}
+
+::testing::AssertionResult isClosedStrip(const std::vector<Triangle>& band, std::uint32_t m, std::uint32_t n)
+{
+    if (band.size() != m + n)
+        return ::testing::AssertionFailure() << band.size() << " triangles, not m + n = " << m + n;
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> contourEdges;
+    for (const Triangle& t : band) {
+        int onA = 0;
+        for (std::uint32_t v : t) onA += v < m ? 1 : 0;
+        if (onA != 1 && onA != 2) return ::testing::AssertionFailure() << "a triangle on one contour only";
+        for (int k = 0; k < 3; ++k)
+            if ((t[k] < m) == (t[(k + 1) % 3] < m)) ++contourEdges[{t[k], t[(k + 1) % 3]}];
+    }
+    for (std::uint32_t i = 0; i < m; ++i)
+        if (contourEdges[{i, (i + 1) % m}] != 1) return ::testing::AssertionFailure() << "edge " << i << " of A not used once";
+    for (std::uint32_t j = 0; j < n; ++j)
+        if (contourEdges[{m + (j + 1) % n, m + j}] != 1)
+            return ::testing::AssertionFailure() << "edge " << j << " of B not used once";
+    if (contourEdges.size() != m + n) return ::testing::AssertionFailure() << "edges other than the contours' used";
+    auto spanning = [&](const Triangle& t) {
+        std::set<std::pair<std::uint32_t, std::uint32_t>> s;
+        for (int k = 0; k < 3; ++k)
+            if ((t[k] < m) != (t[(k + 1) % 3] < m)) s.insert({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
+        return s;
+    };
+    for (std::size_t k = 0; k < band.size(); ++k) {
+        const auto s = spanning(band[k]), next = spanning(band[(k + 1) % band.size()]);
+        int shared = 0;
+        for (const auto& e : s) shared += static_cast<int>(next.count(e));
+        if (shared != 1)
+            return ::testing::AssertionFailure() << "triangles " << k << " and " << (k + 1) % band.size() << " share "
+                                                 << shared << " spanning edges";
+    }
+    return ::testing::AssertionSuccess();
+}
+
+void writeGridsVdb(const std::string& path, const openvdb::GridPtrVec& grids)
 {
     openvdb::initialize();
     openvdb::io::File file(path);
     file.write(grids);
     file.close();
 }
-} // namespace
 
 void writeVectorGridVdb(const std::string& path)
 {
@@ -95,7 +140,7 @@ void writeVectorGridVdb(const std::string& path)
     auto grid = openvdb::Vec3SGrid::create();
     grid->setName("velocity");
     grid->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3s(1, 0, 0));
-    writeGrids(path, {grid});
+    writeGridsVdb(path, {grid});
 }
 
 void writeEmptyGridVdb(const std::string& path)
@@ -104,7 +149,7 @@ void writeEmptyGridVdb(const std::string& path)
     auto grid = openvdb::FloatGrid::create(3.0f);
     grid->setName("empty");
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    writeGrids(path, {grid});
+    writeGridsVdb(path, {grid});
 }
 
 void writeNanGridVdb(const std::string& path)
@@ -114,7 +159,7 @@ void writeNanGridVdb(const std::string& path)
     grid->setName("broken");
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     for (int i = 0; i < 8; ++i) grid->tree().setValue(openvdb::Coord(i, 0, 0), std::numeric_limits<float>::quiet_NaN());
-    writeGrids(path, {grid});
+    writeGridsVdb(path, {grid});
 }
 
 } // namespace pipetile::test

@@ -1,6 +1,8 @@
 // Shared helpers of the test suite: temporary folders, running the CLI, cached samples.
 #pragma once
 
+#include <pipetile/contour.h>
+#include <pipetile/tiler.h>
 #include <pipetile/volume.h>
 
 #include <gtest/gtest.h>
@@ -35,6 +37,15 @@ const Volume& cachedSample(const std::string& name);
 
 /// A real third-party volume from ../shared/data/real.
 std::string realData(const std::string& file);
+
+/// Edge types from their names, e.g. "F U_I B U_O F".
+std::vector<EdgeType> parseEdges(const std::string& names);
+
+/// Acceptable surface (toroidal graph sense) between contours of m and n crossings (ids i and
+/// m + j): m + n triangles, each with one contour edge and one vertex on the other contour; every
+/// contour edge used exactly once; consecutive triangles sharing one spanning edge, the last with
+/// the first (a closed strip).
+::testing::AssertionResult isClosedStrip(const std::vector<Triangle>& band, std::uint32_t m, std::uint32_t n);
 
 /// Small broken .vdb files, written with OpenVDB itself, for bad-input tests.
 void writeVectorGridVdb(const std::string& path);  // one Vec3 grid named "velocity"

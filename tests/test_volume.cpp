@@ -15,15 +15,6 @@ using pipetile::test::TempDir;
 
 namespace {
 
-// Writes grids to a .vdb file with OpenVDB itself.
-void writeGrids(const std::string& path, const openvdb::GridPtrVec& grids)
-{
-    openvdb::initialize();
-    openvdb::io::File file(path);
-    file.write(grids);
-    file.close();
-}
-
 openvdb::FloatGrid::Ptr smallLevelSet(float background = 3.0f)
 {
     openvdb::initialize();
@@ -123,12 +114,9 @@ TEST(Volume, UnknownGridNameListsTheGrids)
 TEST(Volume, VectorGridIsRefusedWithItsType)
 {
     TempDir dir;
-    auto velocity = openvdb::Vec3SGrid::create();
-    velocity->setName("v");
-    velocity->tree().setValue(openvdb::Coord(0), openvdb::Vec3s(1, 0, 0));
-    writeGrids(dir.path("vel.vdb"), {velocity});
+    test::writeVectorGridVdb(dir.path("vel.vdb"));
     EXPECT_NE(messageOf([&] { readVolume(dir.path("vel.vdb")); }).find("no scalar float grid"), std::string::npos);
-    EXPECT_NE(messageOf([&] { readVolume(dir.path("vel.vdb"), {"v", {}}); }).find("vec3s"), std::string::npos);
+    EXPECT_NE(messageOf([&] { readVolume(dir.path("vel.vdb"), {"velocity", {}}); }).find("vec3s"), std::string::npos);
 }
 
 TEST(Volume, EmptyGridIsRefused)
