@@ -6,10 +6,13 @@
 // finding too.
 //
 // OpenVDB sizes some buffers from numbers in the file (bloscFromStream allocates the compressed
-// size it reads). Outside the fuzzer an absurd size makes `new` throw std::bad_alloc, which
-// readVolume reports as pipetile::Error; under AddressSanitizer `new` aborts instead. So this
-// harness replaces the global operator new with one that throws std::bad_alloc above 1 GiB, as a
-// machine with that much free memory would, and the fuzzer tests pipetile's handling of it.
+// size it reads; string metadata is resized, and zero-filled, to the length it reads). Outside the
+// fuzzer an absurd size makes `new` throw std::bad_alloc, which readVolume reports as
+// pipetile::Error; under AddressSanitizer `new` aborts instead, and sizes that do fit pile up past
+// the memory limit. So this harness replaces the global operator new with one that throws
+// std::bad_alloc above 64 MiB: inputs are at most 24 KB and meshing them (within the budget
+// below) needs far less in one piece, so a bigger request comes from a size read out of a damaged
+// file, and gets what a machine short of memory would answer.
 
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
@@ -32,7 +35,7 @@
 
 namespace {
 
-constexpr std::size_t kMaxAllocation = std::size_t(1) << 30;
+constexpr std::size_t kMaxAllocation = std::size_t(64) << 20;
 
 void* allocate(std::size_t size, std::size_t alignment = 0)
 {

@@ -120,7 +120,6 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
         // Rule [2]: U hangs left of level-1 node `ray`, D right of level-1 node x (= ray - 1).
         if (up) mNodes[levelOne(ray)].left = node;
         else mNodes[levelOne(x)].right = node;
-        mNodes[node].rule = mNodes[node].rule ? mNodes[node].rule : 2;
         // Keys: the end of F_x, then the excursion's crossings by child and position; the last
         // excursion edge ends where F_{x+1} starts, which keeps its main-path key.
         mKeys[(mStart + from) % m] = {x + 1, 0, 0, 0};
