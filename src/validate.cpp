@@ -437,8 +437,10 @@ Validation Validator::validate(const TriangleMesh& mesh) const
         tbb::task_arena arena(mImpl->options.threads > 0 ? mImpl->options.threads : tbb::task_arena::automatic);
         arena.execute([&] {
             tbb::parallel_for(tbb::blocked_range<std::size_t>(0, phi.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+                // The sampler keeps a reference to the accessor: it must outlive the sampler.
+                const openvdb::FloatGrid::ConstAccessor accessor = gridOf(volume).getConstAccessor();
                 const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> sampler(
-                    gridOf(volume).getConstAccessor(), gridOf(volume).transform());
+                    accessor, gridOf(volume).transform());
                 for (std::size_t i = r.begin(); i < r.end(); ++i) {
                     const glm::dvec3& p = samples.points[i];
                     phi[i] = std::abs(sampler.wsSample(openvdb::Vec3d(p.x, p.y, p.z)) - volume.iso());
