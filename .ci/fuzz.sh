@@ -2,10 +2,11 @@
 # CI: builds the libFuzzer harnesses of fuzz/ with clang and runs each for a bounded time.
 #   bash .ci/fuzz.sh                          # from the repository root; builds in build-fuzz/
 #   PIPETILE_FUZZ_SECONDS=300 bash .ci/fuzz.sh
-# The regression inputs of fuzz/corpus_regressions/ are replayed first; any of them failing again
-# fails the script. A new crash, sanitizer report, invariant trap, timeout or out-of-memory in the
-# timed run is reported with its input left in build-fuzz/artifacts/ (move it to
-# fuzz/corpus_regressions/<fuzzer>/ and add a test); it fails the script with PIPETILE_FUZZ_STRICT=1.
+# The regression inputs of fuzz/corpus_regressions/{contour,vdb}/ are replayed first; any of them
+# failing again fails the script. A new crash, sanitizer report, invariant trap, timeout or
+# out-of-memory in the timed run is reported with its input left in build-fuzz/artifacts/ (move it
+# to fuzz/corpus_regressions/<fuzzer>/ and add a test); it fails the script with
+# PIPETILE_FUZZ_STRICT=1.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
