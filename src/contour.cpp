@@ -31,6 +31,15 @@ void check(bool condition, const char* what)
 
 glm::dvec2 cornerPoint(const glm::ivec2& c) { return {c.x - 0.5, c.y - 0.5}; }
 
+// The change of angle from one polygon point to the next, in turns, taken the short way round:
+// the same rule as the crossing loop of castRaysImpl, which wraps at half of n rays.
+double wrappedDelta(double delta)
+{
+    if (delta > 0.5) return delta - 1.0;
+    if (delta < -0.5) return delta + 1.0;
+    return delta;
+}
+
 void finishLoop(BoundaryLoop& loop)
 {
     double area2 = 0.0, cx = 0.0, cy = 0.0;
@@ -221,33 +230,26 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
 // down), only the new rays are cast; the coarse crossings are reused as they are and merged in by
 // their walk positions, which gives exactly what casting every ray would (paper §4.3).
 template <class SampleFn>
-Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SampleFn& field,
-                     const Contour* coarse = nullptr)
+Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& field, const Contour* coarse = nullptr)
 {
     Contour contour;
+    const glm::dvec2 center = view.center;
     contour.center = center;
-    contour.hole = loop.hole();
+    contour.hole = view.hole;
     contour.rays = rays;
     const int n = rays.count();
-    const std::size_t m = loop.corners.size();
-    if (m < 4 || n < 3) return contour;
-
-    // A hole's loop runs clockwise; walk it reversed so the contour winds counterclockwise around
-    // its centre, with the hollow as its "inside".
-    std::vector<glm::dvec2> poly(m);
-    for (std::size_t i = 0; i < m; ++i) poly[i] = loop.points[contour.hole ? m - 1 - i : i];
+    const std::size_t m = view.polygon.size();
+    // The loop must wind once around the centre: then every ray has one more InOut than OutIn
+    // crossing.
+    if (m < 4 || n < 3 || view.winding != 1) return contour;
+    const std::vector<glm::dvec2>& poly = view.polygon;
     const double inwardSign = contour.hole ? -1.0 : 1.0;
 
-    // Ray coordinate of each corner: angle / 2pi * n. It is computed as (fraction * n0) * 2^level,
-    // the last factor exact, so a corner compares with ray x of level L exactly as with ray 2x of
-    // level L+1: levels nest.
+    // Ray coordinate of each point: its angle in turns * n0 * 2^level, the last factor exact, so
+    // a point compares with ray x of level L exactly as with ray 2x of level L+1: levels nest.
+    const double scale = static_cast<double>(rays.baseRays) * static_cast<double>(1LL << rays.level);
     std::vector<double> rho(m);
-    for (std::size_t i = 0; i < m; ++i) {
-        double fraction = std::atan2(poly[i].y - center.y, poly[i].x - center.x) / kTwoPi;
-        if (fraction < 0.0) fraction += 1.0;
-        if (fraction >= 1.0) fraction -= 1.0;
-        rho[i] = std::ldexp(fraction * rays.baseRays, rays.level);
-    }
+    for (std::size_t i = 0; i < m; ++i) rho[i] = view.turns[i] * scale;
 
     struct Hit { int ray; CrossingKind kind; double crackT; int segment; long long along; int old; };
     std::vector<Hit> hits;
@@ -303,7 +305,8 @@ Contour castRaysImpl(const BoundaryLoop& loop, const glm::dvec2& center, const R
             return a.segment != b.segment ? a.segment < b.segment : a.along < b.along;
         });
     }
-    // The loop must wind once around the centre: one more InOut than OutIn on every ray.
+    // Every ray must then have one more InOut than OutIn crossing; a segment through the centre
+    // itself (half a turn to within rounding) can still break that.
     std::vector<int> balance(n, 0);
     for (const Hit& h : hits) balance[h.ray] += h.kind == CrossingKind::InOut ? 1 : -1;
     for (int b : balance)
@@ -412,27 +415,60 @@ glm::dvec2 centralPoint(const BoundaryLoop& loop)
     return encloses(loop, loop.centroid) ? loop.centroid : deepestPixel(loop);
 }
 
+LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
+{
+    LoopView view;
+    view.center = center;
+    view.hole = loop.hole();
+    const std::size_t m = loop.points.size();
+    view.polygon.resize(m);
+    view.turns.resize(m);
+    double total = 0.0;
+    for (std::size_t i = 0; i < m; ++i) {
+        const glm::dvec2 p = loop.points[view.hole ? m - 1 - i : i];
+        view.polygon[i] = p;
+        double turn = std::atan2(p.y - center.y, p.x - center.x) / kTwoPi;
+        if (turn < 0.0) turn += 1.0;
+        if (turn >= 1.0) turn -= 1.0;
+        view.turns[i] = turn;
+        if (i > 0) total += wrappedDelta(view.turns[i] - view.turns[i - 1]);
+    }
+    if (m > 0) total += wrappedDelta(view.turns[0] - view.turns[m - 1]);
+    view.winding = static_cast<int>(std::lround(total));
+    return view;
+}
+
+Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane)
+{
+    return castRaysImpl(view, rays, [&](const glm::dvec2& p) { return plane.sample(p); });
+}
+
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane)
 {
-    return castRaysImpl(loop, center, rays, [&](const glm::dvec2& p) { return plane.sample(p); });
+    return castRays(viewFrom(loop, center), rays, plane);
 }
 
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
 {
-    return castRaysImpl(loop, center, rays, [&](const glm::dvec2& p) { return image.sample(p); });
+    return castRaysImpl(viewFrom(loop, center), rays, [&](const glm::dvec2& p) { return image.sample(p); });
+}
+
+Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane)
+{
+    if (coarse.crossings.empty()) return coarse;
+    return castRaysImpl(view, RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
+                        [&](const glm::dvec2& p) { return plane.sample(p); }, &coarse);
 }
 
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane)
 {
-    if (coarse.crossings.empty()) return coarse;
-    return castRaysImpl(loop, coarse.center, RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
-                        [&](const glm::dvec2& p) { return plane.sample(p); }, &coarse);
+    return refineContour(coarse, viewFrom(loop, coarse.center), plane);
 }
 
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
 {
     if (coarse.crossings.empty()) return coarse;
-    return castRaysImpl(loop, coarse.center, RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
+    return castRaysImpl(viewFrom(loop, coarse.center), RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
                         [&](const glm::dvec2& p) { return image.sample(p); }, &coarse);
 }
 

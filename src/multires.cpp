@@ -164,12 +164,12 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
         const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
         for (BoundaryLoop& loop : traceBoundaries(plane)) {
             if (std::abs(loop.area) < options.minContourArea) { ++counts[s].small; continue; }
-            const glm::dvec2 center = centralPoint(loop);
-            if (castRays(loop, center, RaySet{options.baseRays, 0}, plane).crossings.empty()) {
+            LoopView view = viewFrom(loop, centralPoint(loop));
+            if (view.winding != 1) {
                 ++counts[s].unwound;
                 continue;
             }
-            mLoops[s].push_back({std::move(loop), center});
+            mLoops[s].push_back({std::move(loop), std::move(view)});
         }
     });
     for (std::size_t s = 0; s < sliceCount; ++s) {
@@ -200,8 +200,8 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
                     const SliceLoop& a = mLoops[s - 1][i];
                     const SliceLoop& b = mLoops[s][j];
                     if (a.loop.hole() != b.loop.hole()) continue;
-                    if (!encloses(a.loop, b.center) && !encloses(b.loop, a.center)) continue;
-                    const glm::dvec2 d = a.center - b.center;
+                    if (!encloses(a.loop, b.view.center) && !encloses(b.loop, a.view.center)) continue;
+                    const glm::dvec2 d = a.view.center - b.view.center;
                     candidates.push_back({d.x * d.x + d.y * d.y, i, j});
                 }
             std::stable_sort(candidates.begin(), candidates.end(),
@@ -238,8 +238,8 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             const SlicePlane plane(mVolume, mPlan, mPositions[s]);
             double wApex = plane.w();
             TubeEnd& end = top ? tube.top : tube.bottom;
-            end.hasApex = !tube.hole && findApex(plane, member.center, direction, reach, wApex);
-            end.apexIndex = planeToIndex(mPlan.axis, member.center, wApex);
+            end.hasApex = !tube.hole && findApex(plane, member.view.center, direction, reach, wApex);
+            end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
             const double wEnd = wApex - direction * kEndInset;
             if (!end.hasApex || direction * (wEnd - plane.w()) < 0.25) continue;
             const SlicePlane endPlane(mVolume, mPlan, wEnd);
@@ -249,16 +249,17 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             for (int k = 0; k < static_cast<int>(loops.size()); ++k) {
                 const BoundaryLoop& candidate = loops[k];
                 if (candidate.hole() || std::abs(candidate.area) < options.minContourArea) continue;
-                if (!encloses(candidate, member.center) && !encloses(member.loop, candidate.centroid)) continue;
-                const glm::dvec2 d = candidate.centroid - member.center;
+                if (!encloses(candidate, member.view.center) && !encloses(member.loop, candidate.centroid)) continue;
+                const glm::dvec2 d = candidate.centroid - member.view.center;
                 if (best < 0 || d.x * d.x + d.y * d.y < bestDistance2) { best = k; bestDistance2 = d.x * d.x + d.y * d.y; }
             }
             if (best < 0) continue;
             const glm::dvec2 center = centralPoint(loops[best]);
-            if (castRays(loops[best], center, RaySet{options.baseRays, 0}, endPlane).crossings.empty()) continue;
+            LoopView view = viewFrom(loops[best], center);
+            if (view.winding != 1) continue;
             mPositions.push_back(wEnd);
             mLoops.push_back({});
-            mLoops.back().push_back({std::move(loops[best]), center});
+            mLoops.back().push_back({std::move(loops[best]), std::move(view)});
             const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
             if (top) tube.members.push_back(added);
             else tube.members.insert(tube.members.begin(), added);
@@ -278,7 +279,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             if (!end.hasApex) continue;
             const auto [s, l] = top ? tube.members.back() : tube.members.front();
             const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-            const Contour c = castRays(mLoops[s][l].loop, mLoops[s][l].center, finest, plane);
+            const Contour c = castRays(mLoops[s][l].view, finest, plane);
             end.fan = !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
         }
     }
@@ -335,7 +336,7 @@ Reconstruction::Contours Reconstruction::castLevel(int level) const
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         if (mLoops[s].empty()) return;
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-        for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.loop, l.center, rays, plane));
+        for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.view, rays, plane));
     });
     return contours;
 }
@@ -347,7 +348,7 @@ Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse) 
         if (mLoops[s].empty()) return;
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
         for (std::size_t l = 0; l < mLoops[s].size(); ++l)
-            contours[s].push_back(refineContour(coarse[s][l], mLoops[s][l].loop, plane));
+            contours[s].push_back(refineContour(coarse[s][l], mLoops[s][l].view, plane));
     });
     return contours;
 }

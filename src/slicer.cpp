@@ -4,6 +4,8 @@
 #include <pipetile/slicer.h>
 #include <pipetile/volume_grid.h>
 
+#include <glm/common.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -89,6 +91,15 @@ struct SlicePlane::Impl {
         double values[4] = {0.0, 0.0, 0.0, 0.0}; // (u, v), (u+1, v), (u, v+1), (u+1, v+1)
     };
     mutable Cell cell; // the last bilinear cell sampled
+    // For the boundary walk: the plane's field over the leaf nodes it crosses and one block
+    // around them, read once from the leaf buffers. The seed scan and the walk read each pixel
+    // several times, and an accessor lookup per read cost more than the rest of the slicing
+    // together. Ray casting reads few pixels and does not build it. Pixels outside are read
+    // through the accessor.
+    std::vector<glm::ivec2> leafOrigins; // (u, v) origins of the leaves the plane reads, sorted (v, u)
+    std::vector<double> image;
+    glm::ivec2 imageMin{0};
+    int imageWidth = 0, imageHeight = 0;
 
     Impl(const Volume& vol, const SlicePlan& p, double wPlane)
         : volume(&vol), plan(&p), w(wPlane), w0(static_cast<int>(std::floor(wPlane))), frac(wPlane - std::floor(wPlane)),
@@ -96,17 +107,74 @@ struct SlicePlane::Impl {
           accessor(gridOf(vol).getConstAccessor())
     {}
 
+    void readLeaves()
+    {
+        const SlicePlan& p = *plan;
+        // The plane reads voxel planes w0 and, between planes, w0 + 1: their leaves hold the boundary.
+        for (int wi : {w0, w0 + 1}) {
+            if (wi == w0 + 1 && frac == 0.0) break;
+            const int slab = floorDiv(wi - p.leafOriginMin, kLeafDim);
+            if (slab < 0 || slab >= static_cast<int>(p.leafFootprints.size())) continue;
+            leafOrigins.insert(leafOrigins.end(), p.leafFootprints[slab].begin(), p.leafFootprints[slab].end());
+        }
+        std::sort(leafOrigins.begin(), leafOrigins.end(),
+                  [](const glm::ivec2& a, const glm::ivec2& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
+        leafOrigins.erase(std::unique(leafOrigins.begin(), leafOrigins.end()), leafOrigins.end());
+        if (leafOrigins.empty()) return;
+        glm::ivec2 lo = leafOrigins.front(), hi = lo;
+        for (const glm::ivec2& o : leafOrigins) { lo = glm::min(lo, o); hi = glm::max(hi, o); }
+        lo -= kLeafDim;
+        hi += 2 * kLeafDim;
+        const std::size_t pixels = static_cast<std::size_t>(hi.x - lo.x) * static_cast<std::size_t>(hi.y - lo.y);
+        // Leaves scattered far apart (two small objects) would make a huge, empty image: read
+        // those through the accessor.
+        if (pixels > std::max<std::size_t>(std::size_t(1) << 20, 16 * kLeafDim * kLeafDim * leafOrigins.size())) return;
+        imageMin = lo;
+        imageWidth = hi.x - lo.x;
+        imageHeight = hi.y - lo.y;
+        image.resize(pixels);
+        // Offset of voxel (x, y, z) in a leaf's buffer: (x & 7) * 64 + (y & 7) * 8 + (z & 7).
+        constexpr int kStride[3] = {kLeafDim * kLeafDim, kLeafDim, 1};
+        const int ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
+        for (int wi : {w0, w0 + 1}) {
+            if (wi == w0 + 1 && frac == 0.0) break;
+            const int wOffset = (wi & (kLeafDim - 1)) * kStride[p.axis];
+            for (int bv = lo.y; bv < hi.y; bv += kLeafDim)
+                for (int bu = lo.x; bu < hi.x; bu += kLeafDim) {
+                    openvdb::Coord c;
+                    c[p.axis] = wi;
+                    c[ua] = bu;
+                    c[va] = bv;
+                    const openvdb::FloatTree::LeafNodeType* leaf = accessor.probeConstLeaf(c);
+                    const float* data = leaf ? leaf->buffer().data() : nullptr;
+                    const double tile = leaf ? 0.0 : signedValue(accessor.getValue(c));
+                    for (int dv = 0; dv < kLeafDim; ++dv) {
+                        double* row = &image[static_cast<std::size_t>(bv + dv - lo.y) * imageWidth + (bu - lo.x)];
+                        for (int du = 0; du < kLeafDim; ++du) {
+                            const double value = data ? signedValue(data[wOffset + du * kStride[ua] + dv * kStride[va]]) : tile;
+                            row[du] = wi == w0 ? value : row[du] + frac * (value - row[du]);
+                        }
+                    }
+                }
+        }
+    }
+
+    double signedValue(float value) const { return sign * (static_cast<double>(value) - iso); }
+
     double voxel(int u, int v, int wi) const
     {
         openvdb::Coord c;
         c[plan->axis] = wi;
         c[(plan->axis + 1) % 3] = u;
         c[(plan->axis + 2) % 3] = v;
-        return sign * (static_cast<double>(accessor.getValue(c)) - iso);
+        return signedValue(accessor.getValue(c));
     }
 
     double pixel(int u, int v) const
     {
+        const int x = u - imageMin.x, y = v - imageMin.y;
+        if (x >= 0 && y >= 0 && x < imageWidth && y < imageHeight)
+            return image[static_cast<std::size_t>(y) * imageWidth + x];
         const double a = voxel(u, v, w0);
         return frac == 0.0 ? a : a + frac * (voxel(u, v, w0 + 1) - a);
     }
@@ -164,27 +232,32 @@ double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
 
 std::vector<glm::ivec2> SlicePlane::eastCracks() const
 {
-    const SlicePlan& p = *mImpl->plan;
-    // The plane reads voxel planes w0 and, between planes, w0 + 1: their leaves hold the boundary.
-    std::vector<glm::ivec2> origins;
-    for (int wi : {mImpl->w0, mImpl->w0 + 1}) {
-        if (wi == mImpl->w0 + 1 && mImpl->frac == 0.0) break;
-        const int slab = floorDiv(wi - p.leafOriginMin, kLeafDim);
-        if (slab < 0 || slab >= static_cast<int>(p.leafFootprints.size())) continue;
-        origins.insert(origins.end(), p.leafFootprints[slab].begin(), p.leafFootprints[slab].end());
-    }
-    std::sort(origins.begin(), origins.end(),
-              [](const glm::ivec2& a, const glm::ivec2& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
-    origins.erase(std::unique(origins.begin(), origins.end()), origins.end());
-
+    if (mImpl->leafOrigins.empty()) mImpl->readLeaves();
+    const std::vector<glm::ivec2>& origins = mImpl->leafOrigins;
+    const Impl& im = *mImpl;
+    const SlicePlan& p = *im.plan;
+    // inside(), with the image read in place: this scan reads every pixel of every leaf.
+    auto in = [&](int u, int v) {
+        if (u < p.pixelMin.x || v < p.pixelMin.y || u > p.pixelMax.x || v > p.pixelMax.y) return false;
+        const int x = u - im.imageMin.x, y = v - im.imageMin.y;
+        if (x >= 0 && y >= 0 && x < im.imageWidth && y < im.imageHeight)
+            return im.image[static_cast<std::size_t>(y) * im.imageWidth + x] < 0.0;
+        return im.pixel(u, v) < 0.0;
+    };
     std::vector<glm::ivec2> cracks;
     for (const glm::ivec2& o : origins) {
+        // Leaves inside the image and the pixel box (all but a few) are scanned row by row in place.
+        const int x = o.x - im.imageMin.x, y = o.y - im.imageMin.y;
+        const bool fast = x >= 0 && y >= 0 && x + kLeafDim < im.imageWidth && y + kLeafDim <= im.imageHeight &&
+                          o.x >= p.pixelMin.x && o.y >= p.pixelMin.y && o.x + kLeafDim <= p.pixelMax.x &&
+                          o.y + kLeafDim - 1 <= p.pixelMax.y;
         for (int v = o.y; v < o.y + kLeafDim; ++v) {
-            bool in = inside(o.x, v);
+            const double* row = fast ? &im.image[static_cast<std::size_t>(v - im.imageMin.y) * im.imageWidth + x] : nullptr;
+            bool inside = fast ? row[0] < 0.0 : in(o.x, v);
             for (int u = o.x; u < o.x + kLeafDim; ++u) {
-                const bool next = inside(u + 1, v);
-                if (in && !next) cracks.push_back(glm::ivec2(u, v));
-                in = next;
+                const bool next = fast ? row[u + 1 - o.x] < 0.0 : in(u + 1, v);
+                if (inside && !next) cracks.push_back(glm::ivec2(u, v));
+                inside = next;
             }
         }
     }

@@ -100,16 +100,33 @@ glm::dvec2 centralPoint(const BoundaryLoop& loop);
 /// Even-odd test: does the loop's polygon enclose the point?
 bool encloses(const BoundaryLoop& loop, const glm::dvec2& point);
 
+/// A loop as seen from its central point, which is what rays are cut against at every level. The
+/// angles are computed once here rather than once per level (an atan2 per polygon point).
+struct LoopView {
+    glm::dvec2 center{0.0};
+    bool hole = false;
+    std::vector<glm::dvec2> polygon; // the loop's points in contour order: a hole's reversed, so
+                                     // that every contour winds counterclockwise around its centre
+    std::vector<double> turns;       // angle of each polygon point around the centre, in turns,
+                                     // in [0, 1)
+    int winding = 0;                 // turns the polygon makes around the centre; rays give a
+                                     // contour only when it is 1
+};
+
+LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center);
+
 /// Casts `rays` from `center` against the loop and classifies the edges. The loop's points fix
 /// which crossings exist and their order; each position is then refined to the root of the field
 /// interpolated along the ray, between the neighbouring crossings of the same ray.
 /// Returns an empty contour if the loop does not wind once around the centre.
+Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);
 
 /// Refinement (paper §4.3): the same loop's contour at the next level. Only the new rays (between
 /// the coarse ones) are cast; the coarse crossings are kept as they are and the new ones inserted
 /// by walk position. Identical to casting every ray of the next level from scratch.
+Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane);
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane);
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image);
 

@@ -97,7 +97,7 @@ private:
 
     struct SliceLoop {
         BoundaryLoop loop;
-        glm::dvec2 center{0.0};
+        LoopView view; // from its central point: what every level's rays are cut against
     };
     struct TubeEnd {
         bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
