@@ -359,39 +359,23 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     LevelMesh result;
     result.level = level;
     result.rays = rays.count();
-
     TriangleMesh& mesh = result.mesh;
     const bool mirrored = mVolume.mirrored();
-    auto toWorld = [&](const glm::dvec3& index) { return mVolume.indexToWorld(index); };
-    auto emit = [&](const Triangle& local, const std::uint32_t* ids, bool flip) {
-        Triangle t{ids[local[0]], ids[local[1]], ids[local[2]]};
-        if (flip) std::swap(t[1], t[2]);
-        mesh.triangles.push_back(t);
+
+    // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
+    // apex follows the first (or last) contour of its tube. Contours, trees and bands are then
+    // built in parallel and joined in this order, so the mesh does not depend on the threads.
+    struct Member {
+        const Tube* tube;
+        std::size_t k;        // position in the tube
+        const Contour* contour;
+        int slice;
+        std::uint32_t first;  // index of its first vertex
+        std::uint32_t apex[2]; // bottom, top cap apex (members that end a tube with a fan)
     };
-    std::vector<std::uint32_t> ids;
-    // A star-shaped end contour fans around its apex; any other, or one without an apex, is
-    // closed flat by ear clipping, which follows C-shaped and folded sections.
-    auto emitCap = [&](const TubeEnd& end, const Contour& c, bool top, bool flip) {
-        const std::uint32_t m = static_cast<std::uint32_t>(ids.size());
-        if (!end.fan) {
-            std::vector<glm::dvec2> polygon;
-            for (const Crossing& x : c.crossings) polygon.push_back(x.point);
-            for (Triangle t : earClip(polygon)) {
-                if (!top) std::swap(t[1], t[2]);
-                emit(t, ids.data(), flip);
-            }
-            return;
-        }
-        ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
-        mesh.vertices.push_back(toWorld(end.apexIndex));
-        for (const Triangle& t : tileCap(m, top)) emit(t, ids.data(), flip);
-        ids.pop_back();
-    };
-    for (const Tube& tube : mTubes) {
-        // Holes wind the other way round their material; a mirroring transform flips everything.
-        const bool flip = tube.hole != mirrored;
-        std::vector<std::uint32_t> previousIds;
-        std::unique_ptr<ContourTree> previousTree;
+    std::vector<Member> members;
+    std::uint32_t vertexCount = 0;
+    for (const Tube& tube : mTubes)
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
             const Contour& c = contours[s][l];
@@ -401,50 +385,106 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             result.ambiguousContours += isUnambiguous(c) ? 0 : 1;
             result.interpolationFallbacks += c.interpolationFallbacks;
             result.crossings += static_cast<long long>(c.crossings.size());
-            // Each contour's tree follows the previous contour's of the tube (rule [1']).
-            const Clock::time_point tiling = Clock::now();
-            std::unique_ptr<ContourTree> tree;
-            if (mOptions.tiler == TilerKind::ContourTree) {
-                const ContourString string = contourString(c);
-                if (k == 0) {
-                    tree = std::make_unique<ContourTree>(string);
-                } else {
-                    const auto [ps, pl] = tube.members[k - 1];
-                    tree = std::make_unique<ContourTree>(string, rankAgainstNeighbour(c, string, contours[ps][pl], *previousTree));
-                }
-                result.ambiguousSectors += tree->ambiguousSectors();
-                result.tilingBytes += tree->bytes();
-            }
-            result.tilingSeconds += secondsSince(tiling);
-            ids.clear();
-            for (const Crossing& x : c.crossings) {
-                ids.push_back(static_cast<std::uint32_t>(mesh.vertices.size()));
-                mesh.vertices.push_back(toWorld(planeToIndex(mPlan.axis, x.point, mPositions[s])));
-            }
-            if (k == 0) emitCap(tube.bottom, c, false, flip);
-            else {
-                std::vector<std::uint32_t> both = previousIds;
-                both.insert(both.end(), ids.begin(), ids.end());
-                const Clock::time_point tiling = Clock::now();
-                std::vector<Triangle> band;
-                if (mOptions.tiler == TilerKind::ContourTree) {
-                    band = tileBand(*previousTree, *tree);
-                } else {
-                    // The baselines see the same contours as world-space points.
-                    std::vector<glm::dvec3> a, b;
-                    for (std::uint32_t id : previousIds) a.push_back(mesh.vertices[id]);
-                    for (std::uint32_t id : ids) b.push_back(mesh.vertices[id]);
-                    ToroidalStats stats;
-                    band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
-                    result.tilingBytes += stats.bytes;
-                }
-                result.tilingSeconds += secondsSince(tiling);
-                for (const Triangle& t : band) emit(t, both.data(), flip);
-            }
-            if (k + 1 == tube.members.size()) emitCap(tube.top, c, true, flip);
-            previousTree = std::move(tree);
-            previousIds = ids;
+            Member member{&tube, k, &c, s, vertexCount, {0, 0}};
+            vertexCount += static_cast<std::uint32_t>(c.crossings.size());
+            if (k == 0 && tube.bottom.fan) member.apex[0] = vertexCount++;
+            if (k + 1 == tube.members.size() && tube.top.fan) member.apex[1] = vertexCount++;
+            members.push_back(member);
         }
+    mesh.vertices.resize(vertexCount);
+    forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
+        const Member& m = members[i];
+        for (std::size_t j = 0; j < m.contour->crossings.size(); ++j)
+            mesh.vertices[m.first + j] =
+                mVolume.indexToWorld(planeToIndex(mPlan.axis, m.contour->crossings[j].point, mPositions[m.slice]));
+        if (m.k == 0 && m.tube->bottom.fan) mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
+        if (m.k + 1 == m.tube->members.size() && m.tube->top.fan)
+            mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
+    });
+
+    // Contour trees. Each follows the previous contour's of its tube where a sector is ambiguous
+    // (rule [1']); elsewhere there is one tree whatever the neighbour, so those are built first,
+    // in parallel, and the ambiguous ones after them in tube order.
+    const Clock::time_point tiling = Clock::now();
+    std::vector<std::unique_ptr<ContourTree>> trees(members.size());
+    if (mOptions.tiler == TilerKind::ContourTree) {
+        forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
+            if (members[i].k == 0 || isUnambiguous(*members[i].contour))
+                trees[i] = std::make_unique<ContourTree>(contourString(*members[i].contour));
+        });
+        for (std::size_t i = 0; i < members.size(); ++i) {
+            if (trees[i]) continue;
+            const ContourString string = contourString(*members[i].contour);
+            trees[i] = std::make_unique<ContourTree>(
+                string, rankAgainstNeighbour(*members[i].contour, string, *members[i - 1].contour, *trees[i - 1]));
+        }
+        for (const std::unique_ptr<ContourTree>& tree : trees) {
+            result.ambiguousSectors += tree->ambiguousSectors();
+            result.tilingBytes += tree->bytes();
+        }
+    }
+    // Bands: member i > 0 of a tube joins member i - 1, with vertex indices of both.
+    std::vector<std::vector<Triangle>> bands(members.size());
+    std::vector<std::size_t> bandBytes(members.size(), 0);
+    forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
+        const Member& m = members[i];
+        if (m.k == 0) return;
+        const Member& previous = members[i - 1];
+        const std::uint32_t previousCount = static_cast<std::uint32_t>(previous.contour->crossings.size());
+        std::vector<Triangle>& band = bands[i];
+        if (mOptions.tiler == TilerKind::ContourTree) {
+            band = tileBand(*trees[i - 1], *trees[i]);
+        } else {
+            // The baselines see the same contours as world-space points.
+            const auto first = mesh.vertices.begin();
+            const std::vector<glm::dvec3> a(first + previous.first, first + previous.first + previousCount);
+            const std::vector<glm::dvec3> b(first + m.first, first + m.first + m.contour->crossings.size());
+            ToroidalStats stats;
+            band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+            bandBytes[i] = stats.bytes;
+        }
+        // Band-local indices: the previous contour's vertices, then this one's.
+        const bool flip = m.tube->hole != mirrored;
+        for (Triangle& t : band) {
+            for (std::uint32_t& v : t) v = v < previousCount ? previous.first + v : m.first + (v - previousCount);
+            if (flip) std::swap(t[1], t[2]);
+        }
+    });
+    result.tilingSeconds = secondsSince(tiling);
+    for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
+
+    // A star-shaped end contour fans around its apex; any other, or one without an apex, is
+    // closed flat by ear clipping, which follows C-shaped and folded sections.
+    auto emitCap = [&](const Member& m, bool top) {
+        const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
+        const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
+        auto index = [&](std::uint32_t v) { return v < count ? m.first + v : m.apex[top ? 1 : 0]; };
+        // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
+        bool flip = m.tube->hole != mirrored;
+        std::vector<Triangle> cap;
+        if (end.fan) {
+            cap = tileCap(count, top);
+        } else {
+            std::vector<glm::dvec2> polygon;
+            for (const Crossing& x : m.contour->crossings) polygon.push_back(x.point);
+            cap = earClip(polygon);
+            flip = flip != !top;
+        }
+        for (Triangle t : cap) {
+            for (std::uint32_t& v : t) v = index(v);
+            if (flip) std::swap(t[1], t[2]);
+            mesh.triangles.push_back(t);
+        }
+    };
+    std::size_t triangleCount = 0;
+    for (const std::vector<Triangle>& band : bands) triangleCount += band.size();
+    mesh.triangles.reserve(triangleCount + 2 * (vertexCount - static_cast<std::size_t>(result.crossings)) +
+                           4 * mTubes.size());
+    for (std::size_t i = 0; i < members.size(); ++i) {
+        const Member& m = members[i];
+        if (m.k == 0) emitCap(m, false);
+        mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
+        if (m.k + 1 == m.tube->members.size()) emitCap(m, true);
     }
     return result;
 }
