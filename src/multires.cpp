@@ -402,22 +402,17 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
     });
 
-    // Contour trees. Each follows the previous contour's of its tube where a sector is ambiguous
-    // (rule [1']); elsewhere there is one tree whatever the neighbour, so those are built first,
-    // in parallel, and the ambiguous ones after them in tube order.
+    // Contour trees, one per contour; where a sector is ambiguous, each band ranks its two
+    // contours against each other (rule [1'], below), so the trees may differ from band to band.
     const Clock::time_point tiling = Clock::now();
     std::vector<std::unique_ptr<ContourTree>> trees(members.size());
+    std::vector<ContourString> strings(members.size());
+    std::vector<std::size_t> bandBytes(members.size(), 0);
     if (mOptions.tiler == TilerKind::ContourTree) {
         forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
-            if (members[i].k == 0 || isUnambiguous(*members[i].contour))
-                trees[i] = std::make_unique<ContourTree>(contourString(*members[i].contour));
+            strings[i] = contourString(*members[i].contour);
+            trees[i] = std::make_unique<ContourTree>(strings[i]);
         });
-        for (std::size_t i = 0; i < members.size(); ++i) {
-            if (trees[i]) continue;
-            const ContourString string = contourString(*members[i].contour);
-            trees[i] = std::make_unique<ContourTree>(
-                string, rankAgainstNeighbour(*members[i].contour, string, *members[i - 1].contour, *trees[i - 1]));
-        }
         for (const std::unique_ptr<ContourTree>& tree : trees) {
             result.ambiguousSectors += tree->ambiguousSectors();
             result.tilingBytes += tree->bytes();
@@ -425,7 +420,6 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     }
     // Bands: member i > 0 of a tube joins member i - 1, with vertex indices of both.
     std::vector<std::vector<Triangle>> bands(members.size());
-    std::vector<std::size_t> bandBytes(members.size(), 0);
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
         if (m.k == 0) return;
@@ -433,7 +427,28 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const std::uint32_t previousCount = static_cast<std::uint32_t>(previous.contour->crossings.size());
         std::vector<Triangle>& band = bands[i];
         if (mOptions.tiler == TilerKind::ContourTree) {
-            band = tileBand(*trees[i - 1], *trees[i]);
+            // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
+            // closest to the upper contour's, then the upper one the F edge closest to that
+            // choice. Ranking each contour once, against the contour below it only, carried a
+            // choice made for one band into the next, where the upper contour's sector can hold
+            // the other F edge (bean: the arm tip grows past a ray between two slices) and the
+            // traversal then paired the tip with the hole's wall.
+            const ContourTree* lower = trees[i - 1].get();
+            const ContourTree* upper = trees[i].get();
+            std::unique_ptr<ContourTree> rankedLower, rankedUpper;
+            if (lower->ambiguousSectors() > 0) {
+                rankedLower = std::make_unique<ContourTree>(
+                    strings[i - 1], rankAgainstNeighbour(*previous.contour, strings[i - 1], *m.contour, *upper));
+                lower = rankedLower.get();
+                bandBytes[i] += lower->bytes();
+            }
+            if (upper->ambiguousSectors() > 0) {
+                rankedUpper = std::make_unique<ContourTree>(
+                    strings[i], rankAgainstNeighbour(*m.contour, strings[i], *previous.contour, *lower));
+                upper = rankedUpper.get();
+                bandBytes[i] += upper->bytes();
+            }
+            band = tileBand(*lower, *upper);
         } else {
             // The baselines see the same contours as world-space points.
             const auto first = mesh.vertices.begin();
