@@ -253,6 +253,7 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
 
     struct Hit { int ray; CrossingKind kind; double crackT; int segment; long long along; int old; };
     std::vector<Hit> hits;
+    hits.reserve(2 * static_cast<std::size_t>(n) + (coarse ? coarse->crossings.size() : 0));
     // Ray x of the coarse level is ray 2x here; only odd rays are new.
     auto isNew = [&](long x) { return coarse == nullptr || ((x % 2) + 2) % 2 == 1; };
     auto direction = [&](int ray) {
@@ -322,7 +323,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     std::rotate(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(start), hits.end());
 
     contour.crossings.resize(hits.size());
-    std::vector<std::vector<int>> perRay(n);
+    std::vector<int> fresh; // the crossings cast here (not reused), grouped by ray below
+    fresh.reserve(hits.size());
     if (coarse) contour.interpolationFallbacks = coarse->interpolationFallbacks;
     for (std::size_t k = 0; k < hits.size(); ++k) {
         Crossing& c = contour.crossings[k];
@@ -331,26 +333,31 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
         } else {
             c.kind = hits[k].kind;
             c.crackT = hits[k].crackT;
-            perRay[hits[k].ray].push_back(static_cast<int>(k));
+            fresh.push_back(static_cast<int>(k));
         }
         c.ray = hits[k].ray;
         c.segment = hits[k].segment;
         c.along = hits[k].along;
     }
-    for (int ray = 0; ray < n; ++ray) {
-        std::vector<int>& ids = perRay[ray];
-        if (ids.empty()) continue;
-        std::sort(ids.begin(), ids.end(),
-                  [&](int a, int b) { return contour.crossings[a].crackT < contour.crossings[b].crackT; });
-        for (std::size_t k = 0; k < ids.size(); ++k) contour.crossings[ids[k]].depth = static_cast<int>(k);
+    std::sort(fresh.begin(), fresh.end(), [&](int a, int b) {
+        const Crossing &p = contour.crossings[a], &q = contour.crossings[b];
+        if (p.ray != q.ray) return p.ray < q.ray;
+        return p.crackT != q.crackT ? p.crackT < q.crackT : a < b; // ties (a pinch): walk order
+    });
+    for (std::size_t first = 0, last = 0; first < fresh.size(); first = last) {
+        const int ray = contour.crossings[fresh[first]].ray;
+        while (last < fresh.size() && contour.crossings[fresh[last]].ray == ray) ++last;
+        const int* ids = fresh.data() + first;
+        const std::size_t count = last - first;
+        for (std::size_t k = 0; k < count; ++k) contour.crossings[ids[k]].depth = static_cast<int>(k);
         const glm::dvec2 d = direction(ray);
         auto g = [&](double t) { return inwardSign * field(center + t * d); };
-        for (std::size_t k = 0; k < ids.size(); ++k) {
+        for (std::size_t k = 0; k < count; ++k) {
             Crossing& c = contour.crossings[ids[k]];
             // Never past the neighbouring crossings of the same ray, so the order stays the walk's.
             double lowest = 0.0, highest = std::numeric_limits<double>::infinity();
             if (k > 0) lowest = 0.5 * (contour.crossings[ids[k - 1]].crackT + c.crackT);
-            if (k + 1 < ids.size()) highest = 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT);
+            if (k + 1 < count) highest = 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT);
             // The polygon lies within its chord error of the surface: search close to it first.
             bool found = false;
             for (double reach : {0.5, 1.5}) {

@@ -31,10 +31,10 @@ double secondsSince(Clock::time_point start)
 template <class Body>
 void forEachIndex(int threads, std::size_t count, const Body& body)
 {
-    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-        tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) { body(i); });
-    });
+    auto run = [&] { tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) { body(i); }); };
+    if (threads == 0) return run(); // the default arena: creating one per call costs more than small loops
+    tbb::task_arena arena(threads);
+    arena.execute(run);
 }
 
 // Where the tube really ends, beyond its last slice: march from the central point along the

@@ -97,7 +97,7 @@ struct SlicePlane::Impl {
     // together. Ray casting reads few pixels and does not build it. Pixels outside are read
     // through the accessor.
     std::vector<glm::ivec2> leafOrigins; // (u, v) origins of the leaves the plane reads, sorted (v, u)
-    std::vector<double> image;
+    std::unique_ptr<double[]> image; // every pixel is written: no need to clear it first
     glm::ivec2 imageMin{0};
     int imageWidth = 0, imageHeight = 0;
 
@@ -132,7 +132,7 @@ struct SlicePlane::Impl {
         imageMin = lo;
         imageWidth = hi.x - lo.x;
         imageHeight = hi.y - lo.y;
-        image.resize(pixels);
+        image.reset(new double[pixels]);
         // Offset of voxel (x, y, z) in a leaf's buffer: (x & 7) * 64 + (y & 7) * 8 + (z & 7).
         constexpr int kStride[3] = {kLeafDim * kLeafDim, kLeafDim, 1};
         const int ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
