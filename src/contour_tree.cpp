@@ -61,18 +61,32 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     // fixes F_0; each later sector takes its preferred candidate if it comes after F_{x-1} on the
     // walk, else the first one that does. Every up-crossing of a sector is followed by one of the
     // next sector before the walk closes, so this always yields a main path.
-    const std::vector<std::vector<int>> candidates = forwardEdges(c);
+    // The F edges of sector x, in walk order: edges[first[x]] .. edges[first[x + 1] - 1]
+    // (forwardEdges() without a vector per sector: this runs for every contour of every level).
+    std::vector<int> first(c.rays + 1, 0), forward(static_cast<std::size_t>(m));
+    for (int i = 0; i < m; ++i)
+        if (c.edges[i] == EdgeType::Forward) ++first[c.ray[i] + 1];
+    for (int x = 0; x < c.rays; ++x) first[x + 1] += first[x];
+    {
+        std::vector<int> next(first.begin(), first.end() - 1);
+        for (int i = 0; i < m; ++i)
+            if (c.edges[i] == EdgeType::Forward) forward[next[c.ray[i]]++] = i;
+    }
+    auto candidate = [&](int x, int k) { return forward[first[x] + k]; };
+    auto candidateCount = [&](int x) { return first[x + 1] - first[x]; };
     auto preferred = [&](int x) {
-        const std::vector<int>& f = candidates[x];
         int best = 0;
-        for (int k = 1; k < static_cast<int>(f.size()); ++k) {
-            const bool better = rank.empty() ? c.depth.empty() ? false : c.depth[f[k]] > c.depth[f[best]]
+        for (int k = 1; k < candidateCount(x); ++k) {
+            const bool better = rank.empty() ? c.depth.empty() ? false : c.depth[candidate(x, k)] > c.depth[candidate(x, best)]
                                              : rank[x][k] < rank[x][best];
             if (better) best = k;
         }
-        return f[best];
+        return candidate(x, best);
     };
-    for (int x = 0; x < c.rays; ++x) mAmbiguous += candidates[x].size() > 1 ? 1 : 0;
+    for (int x = 0; x < c.rays; ++x) {
+        if (candidateCount(x) == 0) throw std::logic_error("ContourTree: a sector without an F edge (internal invariant broken)");
+        mAmbiguous += candidateCount(x) > 1 ? 1 : 0;
+    }
     mStart = preferred(0);
     auto rotated = [&](int edge) { return (edge - mStart + m) % m; }; // position on the walk from F_0
     std::vector<int> mainPath(c.rays + 1);
@@ -81,8 +95,9 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
         int chosen = rotated(preferred(x));
         if (chosen <= mainPath[x - 1]) {
             chosen = m;
-            for (int edge : candidates[x])
-                if (rotated(edge) > mainPath[x - 1] && rotated(edge) < chosen) chosen = rotated(edge);
+            for (int k = 0; k < candidateCount(x); ++k)
+                if (rotated(candidate(x, k)) > mainPath[x - 1] && rotated(candidate(x, k)) < chosen)
+                    chosen = rotated(candidate(x, k));
         }
         if (chosen >= m) throw std::logic_error("ContourTree: no main path (internal invariant broken)");
         mainPath[x] = chosen;
@@ -95,6 +110,7 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     mNodes[0].rule = 1;
     mNodes[0].firstEdge = mStart;
     mNodes[0].edgeCount = m;
+    mNodes[0].children.reserve(c.rays);
     for (int x = 0; x < c.rays; ++x) {
         TreeNode& n = mNodes[levelOne(x)];
         n.kind = NodeKind::LevelOne;

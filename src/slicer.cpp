@@ -252,13 +252,17 @@ std::vector<glm::ivec2> SlicePlane::eastCracks() const
                           o.x >= p.pixelMin.x && o.y >= p.pixelMin.y && o.x + kLeafDim <= p.pixelMax.x &&
                           o.y + kLeafDim - 1 <= p.pixelMax.y;
         for (int v = o.y; v < o.y + kLeafDim; ++v) {
-            const double* row = fast ? &im.image[static_cast<std::size_t>(v - im.imageMin.y) * im.imageWidth + x] : nullptr;
-            bool inside = fast ? row[0] < 0.0 : in(o.x, v);
-            for (int u = o.x; u < o.x + kLeafDim; ++u) {
-                const bool next = fast ? row[u + 1 - o.x] < 0.0 : in(u + 1, v);
-                if (inside && !next) cracks.push_back(glm::ivec2(u, v));
-                inside = next;
+            // Bit i: pixel o.x + i is inside, for i in [0, 8]; a crack where bit i is set and bit
+            // i + 1 is not.
+            unsigned mask = 0;
+            if (fast) {
+                const double* row = &im.image[static_cast<std::size_t>(v - im.imageMin.y) * im.imageWidth + x];
+                for (int i = 0; i <= kLeafDim; ++i) mask |= static_cast<unsigned>(row[i] < 0.0) << i;
+            } else {
+                for (int i = 0; i <= kLeafDim; ++i) mask |= static_cast<unsigned>(in(o.x + i, v)) << i;
             }
+            for (unsigned east = mask & ~(mask >> 1) & ((1u << kLeafDim) - 1); east != 0; east &= east - 1)
+                cracks.push_back(glm::ivec2(o.x + __builtin_ctz(east), v));
         }
     }
     std::sort(cracks.begin(), cracks.end(),
