@@ -324,7 +324,10 @@ LevelMesh Reconstruction::buildLevel(int level) const
     if (level < 0 || level >= mOptions.levels)
         throw UsageError("level " + std::to_string(level) + " is outside 0.." + std::to_string(mOptions.levels - 1));
     const Clock::time_point start = Clock::now();
-    LevelMesh result = assemble(castLevel(level), level);
+    const Contours contours = castLevel(level);
+    const double casting = secondsSince(start);
+    LevelMesh result = assemble(contours, level);
+    result.castingSeconds = casting;
     result.seconds = secondsSince(start);
     return result;
 }
@@ -508,7 +511,9 @@ Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&
 {
     const Clock::time_point start = Clock::now();
     mContours = reconstruction.castLevel(0);
+    const double casting = secondsSince(start);
     mMesh = reconstruction.assemble(mContours, 0);
+    mMesh.castingSeconds = casting;
     mMesh.seconds = secondsSince(start);
 }
 
@@ -519,8 +524,10 @@ const LevelMesh& Refinement::refine()
                          std::to_string(mReconstruction->levelCount()) + " levels");
     const Clock::time_point start = Clock::now();
     mContours = mReconstruction->refineContours(mContours);
+    const double casting = secondsSince(start);
     ++mLevel;
     mMesh = mReconstruction->assemble(mContours, mLevel);
+    mMesh.castingSeconds = casting;
     mMesh.seconds = secondsSince(start);
     return mMesh;
 }

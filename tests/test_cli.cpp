@@ -298,6 +298,7 @@ TEST(Cli, SameOutputWithOneThreadAndAllCores)
         j["statistics"].erase("seconds");
         for (auto& level : j["levels"]) {
             level.erase("seconds");
+            level.erase("casting_seconds");
             level.erase("tiling_seconds");
             level.erase("file");
         }

@@ -197,6 +197,7 @@ int runMesh(const MeshArgs& args)
             {"triangles", level.mesh.triangles.size()},
             {"seconds", level.seconds},
             {"built_by", level.level == 0 ? "casting every ray" : "refining the previous level"},
+            {"casting_seconds", level.castingSeconds},
             {"tiling_seconds", level.tilingSeconds},
             {"tiling_bytes", level.tilingBytes},
             {"contours", level.contours},

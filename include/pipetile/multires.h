@@ -41,6 +41,8 @@ struct LevelMesh {
     int rays = 0;                  // rays per contour at this level
     TriangleMesh mesh;
     double seconds = 0.0;          // ray casting and tiling of this level
+    double castingSeconds = 0.0;   // of which casting rays (sampling, root finding, edge types);
+                                   // for a refinement only the new rays', merged into the contours
     double tilingSeconds = 0.0;    // of which the tiler's: trees and traversal, or the DP / greedy
     std::size_t tilingBytes = 0;   // the tiler's working structures, summed over all bands
     int contours = 0;              // contours tiled
