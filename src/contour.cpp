@@ -256,10 +256,17 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     hits.reserve(2 * static_cast<std::size_t>(n) + (coarse ? coarse->crossings.size() : 0));
     // Ray x of the coarse level is ray 2x here; only odd rays are new.
     auto isNew = [&](long x) { return coarse == nullptr || ((x % 2) + 2) % 2 == 1; };
-    auto direction = [&](int ray) {
-        const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
-        return glm::dvec2(std::cos(angle), std::sin(angle));
-    };
+    // Ray directions, computed once per thread for each ray count (a sincos per crossing cost
+    // more than the rest of the intersection).
+    thread_local std::vector<glm::dvec2> directions;
+    if (static_cast<int>(directions.size()) != n) {
+        directions.resize(n);
+        for (int ray = 0; ray < n; ++ray) {
+            const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
+            directions[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
+        }
+    }
+    auto direction = [&](int ray) { return directions[ray]; };
     // Distance along the ray to where it meets segment ab: solve for the point on the segment and
     // clamp it there, so a ray running along the segment (a near-zero cross product) still meets
     // it on the segment and not somewhere on its line far away.
@@ -279,7 +286,7 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
         if (delta > 0.5 * n) delta -= n;
         if (delta < -0.5 * n) delta += n;
         if (delta == 0.0) continue;
-        const long fa = static_cast<long>(std::floor(rho[i])), fb = static_cast<long>(std::floor(rho[j]));
+        const long fa = static_cast<long>(rho[i]), fb = static_cast<long>(rho[j]); // floor: rho >= 0
         if (delta > 0.0) {
             const long last = fb + (rho[j] < rho[i] ? n : 0);
             for (long x = fa + 1; x <= last; ++x) {
@@ -400,9 +407,20 @@ double FieldImage::sample(const glm::dvec2& uv) const
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
 {
     const SlicePlan& plan = plane.plan();
-    return traceLoops([&](int u, int v) { return plane.inside(u, v); },
-                      [&](int u, int v) { return plane.value(u, v); }, plane.eastCracks(), plan.pixelMin,
-                      plan.pixelMax + 1);
+    const std::vector<glm::ivec2> seeds = plane.eastCracks();
+    // The plane's own inside() and value(), reading its image in place where it has one.
+    const SlicePlane::Window window = plane.window();
+    auto value = [&](int u, int v) {
+        const int x = u - window.min.x, y = v - window.min.y;
+        if (x >= 0 && y >= 0 && x < window.width && y < window.height)
+            return window.values[static_cast<std::size_t>(y) * window.width + x];
+        return plane.value(u, v);
+    };
+    auto inside = [&](int u, int v) {
+        return u >= plan.pixelMin.x && v >= plan.pixelMin.y && u <= plan.pixelMax.x && v <= plan.pixelMax.y &&
+               value(u, v) < 0.0;
+    };
+    return traceLoops(inside, value, seeds, plan.pixelMin, plan.pixelMax + 1);
 }
 
 std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)

@@ -84,6 +84,7 @@ struct SlicePlane::Impl {
     double frac;   // w - w0, in [0, 1)
     double sign;   // +1 level set, -1 fog: turns values into the signed field
     double iso;
+    int ua, va;    // grid axes of u and v
     mutable openvdb::FloatGrid::ConstAccessor accessor;
     struct Cell {
         bool valid = false;
@@ -103,8 +104,8 @@ struct SlicePlane::Impl {
 
     Impl(const Volume& vol, const SlicePlan& p, double wPlane)
         : volume(&vol), plan(&p), w(wPlane), w0(static_cast<int>(std::floor(wPlane))), frac(wPlane - std::floor(wPlane)),
-          sign(vol.volumeClass() == VolumeClass::LevelSet ? 1.0 : -1.0), iso(vol.iso()),
-          accessor(gridOf(vol).getConstAccessor())
+          sign(vol.volumeClass() == VolumeClass::LevelSet ? 1.0 : -1.0), iso(vol.iso()), ua((p.axis + 1) % 3),
+          va((p.axis + 2) % 3), accessor(gridOf(vol).getConstAccessor())
     {}
 
     void readLeaves()
@@ -135,7 +136,6 @@ struct SlicePlane::Impl {
         image.reset(new double[pixels]);
         // Offset of voxel (x, y, z) in a leaf's buffer: (x & 7) * 64 + (y & 7) * 8 + (z & 7).
         constexpr int kStride[3] = {kLeafDim * kLeafDim, kLeafDim, 1};
-        const int ua = (p.axis + 1) % 3, va = (p.axis + 2) % 3;
         for (int wi : {w0, w0 + 1}) {
             if (wi == w0 + 1 && frac == 0.0) break;
             const int wOffset = (wi & (kLeafDim - 1)) * kStride[p.axis];
@@ -165,8 +165,8 @@ struct SlicePlane::Impl {
     {
         openvdb::Coord c;
         c[plan->axis] = wi;
-        c[(plan->axis + 1) % 3] = u;
-        c[(plan->axis + 2) % 3] = v;
+        c[ua] = u;
+        c[va] = v;
         return signedValue(accessor.getValue(c));
     }
 
@@ -201,8 +201,11 @@ bool SlicePlane::inside(int u, int v) const
 
 double SlicePlane::sample(const glm::dvec2& uv) const
 {
-    const double fu = std::floor(uv.x), fv = std::floor(uv.y);
-    const int u = static_cast<int>(fu), v = static_cast<int>(fv);
+    // floor, inline (std::floor is a library call without SSE4.1)
+    int u = static_cast<int>(uv.x), v = static_cast<int>(uv.y);
+    u -= uv.x < u ? 1 : 0;
+    v -= uv.y < v ? 1 : 0;
+    const double fu = u, fv = v;
     const double s = uv.x - fu, t = uv.y - fv;
     // Root finding along a ray samples the same pixel cell several times in a row.
     Impl::Cell& cell = mImpl->cell;
@@ -228,6 +231,11 @@ double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
     };
     const double lower = bilinear(wi);
     return r == 0.0 ? lower : lower + r * (bilinear(wi + 1) - lower);
+}
+
+SlicePlane::Window SlicePlane::window() const
+{
+    return {mImpl->image.get(), mImpl->imageMin, mImpl->imageWidth, mImpl->imageHeight};
 }
 
 std::vector<glm::ivec2> SlicePlane::eastCracks() const
