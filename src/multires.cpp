@@ -291,10 +291,37 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     if (mTubes.empty())
         throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
                     "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
-    for (const Tube& tube : mTubes) {
-        mStats.flatCaps += (tube.bottom.hasApex ? 0 : 1) + (tube.top.hasApex ? 0 : 1);
-        mStats.clippedCaps += (tube.bottom.fan ? 0 : 1) + (tube.top.fan ? 0 : 1);
+    // Hollow pipes: where a hole tube ends in the same plane as the outer tube around it, the two
+    // end contours are joined by an annulus, the pipe's rim, instead of closing each wall by a
+    // cap of its own (two caps over the hollow, far from any surface). Nearest hole first.
+    for (int h = 0; h < static_cast<int>(mTubes.size()); ++h) {
+        if (!mTubes[h].hole) continue;
+        for (const bool top : {false, true}) {
+            const auto [hs, hl] = top ? mTubes[h].members.back() : mTubes[h].members.front();
+            const glm::dvec2 holeCenter = mLoops[hs][hl].view.center;
+            int best = -1;
+            double bestDistance2 = 0.0;
+            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
+                const Tube& outer = mTubes[o];
+                const TubeEnd& end = top ? outer.top : outer.bottom;
+                const auto [os, ol] = top ? outer.members.back() : outer.members.front();
+                if (outer.hole || end.hasApex || end.annulus >= 0 || os != hs || !encloses(mLoops[os][ol].loop, holeCenter))
+                    continue;
+                const glm::dvec2 d = mLoops[os][ol].view.center - holeCenter;
+                if (best < 0 || d.x * d.x + d.y * d.y < bestDistance2) { best = o; bestDistance2 = d.x * d.x + d.y * d.y; }
+            }
+            if (best < 0) continue;
+            (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
+            (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;
+            ++mStats.annularCaps;
+        }
     }
+    for (const Tube& tube : mTubes)
+        for (const TubeEnd* end : {&tube.bottom, &tube.top}) {
+            if (end->annulus >= 0) continue;
+            mStats.flatCaps += end->hasApex ? 0 : 1;
+            mStats.clippedCaps += end->fan ? 0 : 1;
+        }
     mStats.slices = static_cast<int>(mPlan.positions.size());
     mStats.tubes = static_cast<int>(mTubes.size());
     for (const std::vector<SliceLoop>& loops : mLoops)
@@ -473,9 +500,28 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
 
     // A star-shaped end contour fans around its apex; any other, or one without an apex, is
     // closed flat by ear clipping, which follows C-shaped and folded sections.
+    // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
+    // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
+    // inward, so it faces +w, outward at the top. The hole's own end gets nothing.
+    std::vector<std::size_t> tubeFirst(mTubes.size(), 0);
+    for (std::size_t i = members.size(); i-- > 0;) tubeFirst[members[i].tube - mTubes.data()] = i;
+    auto treeOf = [&](std::size_t i) {
+        return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour));
+    };
     auto emitCap = [&](const Member& m, bool top) {
         const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
+        if (m.tube->hole && end.annulus >= 0) return;
         const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
+        if (end.annulus >= 0) {
+            const std::size_t self = tubeFirst[m.tube - mTubes.data()] + m.k;
+            const std::size_t hole = tubeFirst[end.annulus] + (top ? mTubes[end.annulus].members.size() - 1 : 0);
+            for (Triangle t : tileBand(treeOf(self), treeOf(hole))) {
+                for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
+                if (top == mirrored) std::swap(t[1], t[2]);
+                mesh.triangles.push_back(t);
+            }
+            return;
+        }
         auto index = [&](std::uint32_t v) { return v < count ? m.first + v : m.apex[top ? 1 : 0]; };
         // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
         bool flip = m.tube->hole != mirrored;

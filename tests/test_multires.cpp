@@ -119,15 +119,26 @@ TEST(Multires, BeanIsClosedAndCrossesRaysMoreThanOnce)
     expectClosedSphere(top.mesh, 1);
 }
 
-TEST(Multires, HollowPipeWallsAreTwoClosedSurfaces)
+TEST(Multires, HollowPipeIsOneClosedSurfaceWithAnnularRims)
 {
     // An annulus: each slice holds an outer loop and a hole loop; the hole tube's triangles turn
-    // to face the hollow. Until hollow pipes get annular end caps, each wall is its own closed
-    // component, and the enclosed volume is the outer minus the inner one (> 0).
+    // to face the hollow. At each end the outer and the hole contour end in the same plane and are
+    // joined by an annulus: one closed surface around a tunnel, a torus (Euler characteristic 0),
+    // whose enclosed volume is the outer minus the inner one (> 0).
     const Reconstruction r(cachedSample("hollow"), MeshOptions{});
     EXPECT_EQ(r.stats().tubes, 2);
     EXPECT_EQ(r.stats().holes * 2, r.stats().contours);
-    expectClosedSphere(r.buildLevel(2).mesh, 2);
+    EXPECT_EQ(r.stats().annularCaps, 2);
+    EXPECT_EQ(r.stats().flatCaps, 0);
+    for (int level = 0; level < r.levelCount(); ++level) {
+        const Topology topo = checkTopology(r.buildLevel(level).mesh);
+        EXPECT_TRUE(topo.closed()) << topo.boundaryEdges << " boundary edges";
+        EXPECT_TRUE(topo.manifold());
+        EXPECT_TRUE(topo.oriented()) << topo.misorientedEdges << " misoriented edges";
+        EXPECT_TRUE(topo.outward()) << "signed volume " << topo.signedVolume;
+        EXPECT_EQ(topo.components, 1);
+        EXPECT_EQ(topo.euler, 0);
+    }
 }
 
 TEST(Multires, AbsurdParametersAreUsageErrors)

@@ -180,6 +180,7 @@ int runMesh(const MeshArgs& args)
                         {"dropped_unwound_contours", stats.droppedUnwound},
                         {"dropped_flat_contours", stats.droppedFlat}, {"end_contours", stats.endContours},
                         {"flat_caps", stats.flatCaps}, {"clipped_caps", stats.clippedCaps},
+                        {"annular_caps", stats.annularCaps},
                         {"seconds", stats.seconds}}},
         {"levels", json::array()},
     };

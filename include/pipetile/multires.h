@@ -64,6 +64,8 @@ struct ReconstructionStats {
     int endContours = 0;           // contours added half a voxel inside where a tube ends
     int tubes = 0;                 // chains of corresponding contours, each closed by two caps
     int flatCaps = 0;              // caps with no apex found past the last slice (closed flat)
+    int annularCaps = 0;           // hollow pipe rims: an outer and a hole contour ending in the
+                                   // same plane, joined by an annulus (counted once, not as caps)
     int clippedCaps = 0;           // caps closed flat by ear clipping: no apex, or an end contour
                                    // that is not star-shaped
     long long longestBoundary = 0; // cracks in the longest boundary loop: rays beyond about this
@@ -106,6 +108,9 @@ private:
         bool fan = false;          // fan around the apex: the end contour is star-shaped at the
                                    // finest level (then at every level, as rays nest)
         glm::dvec3 apexIndex{0.0}; // index-space apex of the cap
+        int annulus = -1;          // an outer wall's end: the hole tube whose end, in the same
+                                   // plane, it joins by an annulus (a hollow pipe's rim); a hole
+                                   // tube's end: the outer tube that closes it so. -1: a cap
     };
     struct Tube {
         std::vector<std::pair<int, int>> members; // (slice, loop) from first to last slice
