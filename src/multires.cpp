@@ -4,6 +4,8 @@
 #include <pipetile/multires.h>
 #include <pipetile/toroidal.h>
 
+#include <glm/geometric.hpp>
+
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -314,6 +316,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
             (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;
             ++mStats.annularCaps;
+            addRimContours(mTubes[best], mTubes[h], top, reach, kEndInset);
         }
     }
     for (const Tube& tube : mTubes)
@@ -337,6 +340,64 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
                          " would need about " + std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
                          " GiB for the finest level (" + std::to_string(mStats.contours) + " contours); lower --levels");
     mStats.seconds = secondsSince(start);
+}
+
+void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset)
+{
+    // Where the wall itself ends: from a point in the middle of the wall (halfway from a point of
+    // the hole's loop to the nearest point of the outer loop), along the slicing axis.
+    const double direction = top ? 1.0 : -1.0;
+    const auto [s, ol] = top ? outer.members.back() : outer.members.front();
+    const int hl = (top ? hole.members.back() : hole.members.front()).second;
+    const BoundaryLoop& outerLoop = mLoops[s][ol].loop;
+    const BoundaryLoop& holeLoop = mLoops[s][hl].loop;
+    if (outerLoop.points.empty() || holeLoop.points.empty()) return;
+    const glm::dvec2 h = holeLoop.points.front();
+    glm::dvec2 o = outerLoop.points.front();
+    for (const glm::dvec2& p : outerLoop.points)
+        if (glm::dot(p - h, p - h) < glm::dot(o - h, o - h)) o = p;
+    const glm::dvec2 wall = 0.5 * (h + o);
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    double wEnd = plane.w();
+    if (!findApex(plane, wall, direction, reach, wEnd)) return;
+    wEnd -= direction * inset;
+    if (direction * (wEnd - plane.w()) < 0.25) return;
+    // The two walls' loops on that plane: the outer one around the hole's centre, and the hole
+    // nearest to it; both must still wind once around their central points.
+    const SlicePlane endPlane(mVolume, mPlan, wEnd);
+    std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
+    const glm::dvec2 holeCenter = mLoops[s][hl].view.center;
+    int bestOuter = -1, bestHole = -1;
+    double outerDistance2 = 0.0, holeDistance2 = 0.0;
+    for (int k = 0; k < static_cast<int>(loops.size()); ++k) {
+        const BoundaryLoop& candidate = loops[k];
+        if (std::abs(candidate.area) < mOptions.minContourArea) continue;
+        const glm::dvec2 d = candidate.centroid - holeCenter;
+        const double distance2 = d.x * d.x + d.y * d.y;
+        if (candidate.hole()) {
+            if (encloses(candidate, holeCenter) && (bestHole < 0 || distance2 < holeDistance2)) {
+                bestHole = k;
+                holeDistance2 = distance2;
+            }
+        } else if (encloses(candidate, holeCenter) && (bestOuter < 0 || distance2 < outerDistance2)) {
+            bestOuter = k;
+            outerDistance2 = distance2;
+        }
+    }
+    if (bestOuter < 0 || bestHole < 0) return;
+    LoopView outerView = viewFrom(loops[bestOuter], centralPoint(loops[bestOuter]));
+    LoopView holeView = viewFrom(loops[bestHole], centralPoint(loops[bestHole]));
+    if (outerView.winding != 1 || holeView.winding != 1) return;
+    mPositions.push_back(wEnd);
+    mLoops.push_back({});
+    mLoops.back().push_back({std::move(loops[bestOuter]), std::move(outerView)});
+    mLoops.back().push_back({std::move(loops[bestHole]), std::move(holeView)});
+    const int plane2 = static_cast<int>(mPositions.size()) - 1;
+    for (const auto& [tube, loop] : {std::pair<Tube*, int>{&outer, 0}, std::pair<Tube*, int>{&hole, 1}}) {
+        if (top) tube->members.push_back({plane2, loop});
+        else tube->members.insert(tube->members.begin(), {plane2, loop});
+    }
+    mStats.endContours += 2;
 }
 
 int Reconstruction::finestUsefulLevel() const

@@ -117,6 +117,8 @@ private:
         TubeEnd bottom, top;
         bool hole = false;
     };
+    /// A hollow pipe's rim: end contours of both walls where the wall ends, past their last slice.
+    void addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset);
 
     Volume mVolume;
     MeshOptions mOptions;
