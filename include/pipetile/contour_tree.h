@@ -6,6 +6,8 @@
 //  [1'] In an ambiguous sector (t > 1 F edges) the caller ranks the candidates (geometrically:
 //       closest to the neighbour contour's F edge of the sector) and the builder takes the best
 //       ranked one that keeps the main path in walk order. Without ranks, the outermost F edge.
+//       multires ranks per band: the lower contour against the upper one's tree, then the upper
+//       against that choice, so a contour may keep different F edges towards its two neighbours.
 //  [2]  What lies between two consecutive main-path F edges is an excursion on one ray x. An
 //       excursion that starts upward (away from the centre) hangs as the left child of level-1
 //       node x; one that starts downward as the right child of level-1 node x-1.
