@@ -205,9 +205,10 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
         t = ga == 0.0 ? bestA : bestB; // the root is a sample
         return true;
     }
+    // To 1e-7 pixel: far below what the voxels resolve, with fewer samples than a tighter bound.
     int side = 0;
     t = 0.5 * (bestA + bestB);
-    for (int iteration = 0; iteration < 60 && bestB - bestA > 1e-10; ++iteration) {
+    for (int iteration = 0; iteration < 60 && bestB - bestA > 1e-7; ++iteration) {
         const double c = (ga * bestB - gb * bestA) / (ga - gb);
         if (!(c > bestA && c < bestB)) break;
         t = c;
