@@ -150,9 +150,14 @@ struct SlicePlane::Impl {
                     const double tile = leaf ? 0.0 : signedValue(accessor.getValue(c));
                     for (int dv = 0; dv < kLeafDim; ++dv) {
                         double* row = &image[static_cast<std::size_t>(bv + dv - lo.y) * imageWidth + (bu - lo.x)];
-                        for (int du = 0; du < kLeafDim; ++du) {
-                            const double value = data ? signedValue(data[wOffset + du * kStride[ua] + dv * kStride[va]]) : tile;
-                            row[du] = wi == w0 ? value : row[du] + frac * (value - row[du]);
+                        const float* column = data ? data + wOffset + dv * kStride[va] : nullptr;
+                        if (wi != w0) {
+                            for (int du = 0; du < kLeafDim; ++du)
+                                row[du] += frac * ((column ? signedValue(column[du * kStride[ua]]) : tile) - row[du]);
+                        } else if (column) {
+                            for (int du = 0; du < kLeafDim; ++du) row[du] = signedValue(column[du * kStride[ua]]);
+                        } else {
+                            std::fill(row, row + kLeafDim, tile);
                         }
                     }
                 }
