@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 using namespace pipetile;
 using pipetile::test::runCli;
@@ -326,6 +327,45 @@ TEST(Cli, RefusesLevelsThatWouldExhaustMemory)
     const test::CliResult r = runCli("mesh -o '" + dir.path("m.ply") + "' --rays 4096 --levels 5 --spacing 0.1");
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(Cli, BenchReportsTableOneRefinementAndPeers)
+{
+    // The bench on a small input, once per figure: Table 1 has one row per level 1-4 with an object
+    // per tiler; the three tilers tile the same contours, so their triangle counts are equal (m + n
+    // per band, caps shared) and double from level to level on star-shaped circles; refinement
+    // has a row per level it refines from; every peer is compared with pipetile.
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    const test::CliResult r = runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" + dir.path("b.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("## Table 1"), std::string::npos);
+    const nlohmann::json j = readJson(dir.path("b.json"));
+    ASSERT_EQ(j["table1"].size(), 4u);
+    long long previous = 0;
+    for (const auto& row : j["table1"]) {
+        const long long triangles = row["contour-tree"]["triangles"].get<long long>();
+        for (const char* tiler : {"contour-tree", "optimal", "greedy"}) {
+            SCOPED_TRACE(tiler);
+            EXPECT_EQ(row[tiler]["triangles"].get<long long>(), triangles);
+            EXPECT_GT(row[tiler]["bytes"].get<long long>(), 0);
+            EXPECT_GE(row[tiler]["seconds"].get<double>(), 0.0);
+        }
+        if (previous > 0) EXPECT_EQ(triangles, 2 * previous);
+        previous = triangles;
+    }
+    ASSERT_EQ(j["refinement"].size(), 4u);
+    for (const auto& row : j["refinement"]) EXPECT_GT(row["refine_per_new_rays"].get<double>(), 1.0);
+    std::set<std::string> methods;
+    for (const auto& peer : j["peers"]) {
+        methods.insert(peer["method"].get<std::string>());
+        EXPECT_GT(peer["ratio_to_pipetile"].get<double>(), 0.0);
+        if (peer["method"].get<std::string>().find("meshopt") == std::string::npos)
+            EXPECT_TRUE(peer["closed"].get<bool>()) << peer["method"];
+    }
+    for (const char* method : {"volumeToMesh uniform", "volumeToMesh adaptive 0.3", "volumeToMesh adaptive 0.6",
+                               "volumeToMesh adaptive 0.9", "uniform + meshopt_simplify to L0"})
+        EXPECT_EQ(methods.count(method), 1u) << method;
 }
 
 TEST(Cli, MeshesTheRealSmokeAsManyClosedPieces)
