@@ -19,6 +19,7 @@
 #include <pipetile/volume.h>
 
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
 #include <cstddef>
@@ -110,28 +111,44 @@ void removeTemp() { std::remove(tempPath().c_str()); }
 constexpr openvdb::Index64 kMaxActiveVoxels = openvdb::Index64(1) << 20;
 constexpr std::int64_t kMaxSide = 1024;
 
+bool affordable(const openvdb::GridBase::Ptr& base)
+{
+    const openvdb::FloatGrid::Ptr grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
+    if (!grid) return true;
+    if (grid->tree().activeVoxelCount() > kMaxActiveVoxels) return false;
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    if (box.empty()) return true;
+    for (int axis = 0; axis < 3; ++axis)
+        if (std::int64_t(box.max()[axis]) - box.min()[axis] + 1 > kMaxSide) return false;
+    return true;
+}
+
 bool affordable(const std::string& path)
 {
+    // As readVolume reads: every grid through a stream that stops at the end of the file, or, if
+    // another grid's type is unknown, grid by grid through io::File (a damaged other grid must
+    // not hide a large one).
+    try {
+        std::ifstream in(path, std::ios::binary);
+        in.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
+        openvdb::io::Stream stream(in, /*delayLoad=*/false);
+        for (const openvdb::GridBase::Ptr& grid : *stream.getGrids())
+            if (!affordable(grid)) return false;
+        return true;
+    } catch (const openvdb::LookupError&) {
+    } catch (const std::exception&) {
+        return true;
+    }
     try {
         openvdb::io::File file(path);
         file.open(/*delayLoad=*/false);
         const openvdb::GridPtrVecPtr descriptions = file.readAllGridMetadata();
         for (const openvdb::GridBase::Ptr& description : *descriptions) {
-            // Grid by grid, as readVolume reads only the one it picks: a damaged other grid must
-            // not hide a large one.
             if (description->valueType() != "float") continue;
-            openvdb::FloatGrid::Ptr grid;
             try {
-                grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(description->getName()));
+                if (!affordable(file.readGrid(description->getName()))) return false;
             } catch (const std::exception&) {
-                continue;
             }
-            if (!grid) continue;
-            if (grid->tree().activeVoxelCount() > kMaxActiveVoxels) return false;
-            const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
-            if (box.empty()) continue;
-            for (int axis = 0; axis < 3; ++axis)
-                if (std::int64_t(box.max()[axis]) - box.min()[axis] + 1 > kMaxSide) return false;
         }
     } catch (const std::exception&) {
     }

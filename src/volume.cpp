@@ -6,10 +6,12 @@
 #include <pipetile/detail/atomic_file.h>
 
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/tools/Interpolation.h>
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <sstream>
 
@@ -101,6 +103,36 @@ std::vector<GridSummary> summarizeGrids(openvdb::io::File& file, const std::stri
                     "); the file may be truncated or damaged");
     }
     return grids;
+}
+
+// OpenVDB trusts the node counts and child masks in a file and allocates every node before it
+// reads its contents; its file reader does not stop at the end of the data, so a damaged 12 KB file
+// can ask for 2^20 nodes of 270 KB. Read through a stream that throws on any read past the end,
+// and the reading stops at the first node the file holds no bytes for. io::Stream reads every
+// grid of the file, so this is done for files up to kBoundedReadBytes (the grids of such a file
+// fit in memory anyway); larger files, and files with a grid of a type this OpenVDB does not
+// know, are read grid by grid by io::File, trusting them.
+constexpr std::uintmax_t kBoundedReadBytes = std::uintmax_t(256) << 20;
+
+openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::string& name)
+{
+    std::error_code ec;
+    const std::uintmax_t size = std::filesystem::file_size(path, ec);
+    if (ec || size > kBoundedReadBytes) return nullptr;
+    std::ifstream in(path, std::ios::binary);
+    in.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
+    try {
+        openvdb::io::Stream stream(in, /*delayLoad=*/false);
+        for (const openvdb::GridBase::Ptr& grid : *stream.getGrids())
+            if (grid->getName() == name) return grid;
+    } catch (const openvdb::LookupError&) {
+        // Another grid of a type this OpenVDB does not know: read only ours, through io::File.
+        return nullptr;
+    } catch (const std::ios_base::failure&) {
+        throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) +
+                    ": the file ends before the grid's data does; it is truncated or damaged");
+    }
+    throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " could not be read back");
 }
 
 } // namespace
@@ -196,7 +228,10 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
 
     openvdb::GridBase::Ptr base;
     try {
-        base = file->readGrid(name);
+        base = readGridBounded(path, name);
+        if (!base) base = file->readGrid(name);
+    } catch (const Error&) {
+        throw;
     } catch (const std::exception& e) {
         throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) + " (" + e.what() +
                     "); the file may be truncated or damaged");
