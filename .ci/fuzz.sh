@@ -31,7 +31,7 @@ echo "fuzz.sh: build $((SECONDS - start)) s"
 "$build/make_vdb_seeds" "$build/seeds/vdb" >/dev/null
 
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0"
-export LSAN_OPTIONS="suppressions=$root/.ci/lsan.supp:print_suppressions=0"
+export LSAN_OPTIONS="suppressions=$root/.ci/lsan_fuzz.supp:print_suppressions=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
 failed=0 # a known regression input fails again: always fatal
