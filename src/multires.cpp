@@ -63,6 +63,22 @@ bool findApex(const SlicePlane& plane, const glm::dvec2& center, double directio
     return false;
 }
 
+// Index in [0, count) of the candidate that `accept` takes whose point is nearest `target` (the
+// first of equals); -1 if it takes none.
+template <class PointOf, class Accept>
+int nearest(int count, const glm::dvec2& target, const PointOf& pointOf, const Accept& accept)
+{
+    int best = -1;
+    double bestDistance2 = 0.0;
+    for (int k = 0; k < count; ++k) {
+        if (!accept(k)) continue;
+        const glm::dvec2 d = pointOf(k) - target;
+        const double distance2 = d.x * d.x + d.y * d.y;
+        if (best < 0 || distance2 < bestDistance2) { best = k; bestDistance2 = distance2; }
+    }
+    return best;
+}
+
 // Triangulates a simple polygon, counterclockwise in the plane, by ear clipping: m - 2 triangles,
 // counterclockwise. Where rounding leaves no clean ear (a nearly degenerate polygon), the most
 // convex corner is clipped anyway, so the count, and the closed mesh, never depend on it.
@@ -245,16 +261,14 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             const double wEnd = wApex - direction * kEndInset;
             if (!end.hasApex || direction * (wEnd - plane.w()) < 0.25) continue;
             const SlicePlane endPlane(mVolume, mPlan, wEnd);
-            int best = -1;
-            double bestDistance2 = 0.0;
             std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
-            for (int k = 0; k < static_cast<int>(loops.size()); ++k) {
-                const BoundaryLoop& candidate = loops[k];
-                if (candidate.hole() || std::abs(candidate.area) < options.minContourArea) continue;
-                if (!encloses(candidate, member.view.center) && !encloses(member.loop, candidate.centroid)) continue;
-                const glm::dvec2 d = candidate.centroid - member.view.center;
-                if (best < 0 || d.x * d.x + d.y * d.y < bestDistance2) { best = k; bestDistance2 = d.x * d.x + d.y * d.y; }
-            }
+            const int best = nearest(
+                static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
+                [&](int k) {
+                    const BoundaryLoop& candidate = loops[k];
+                    return !candidate.hole() && std::abs(candidate.area) >= options.minContourArea &&
+                           (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid));
+                });
             if (best < 0) continue;
             const glm::dvec2 center = centralPoint(loops[best]);
             LoopView view = viewFrom(loops[best], center);
@@ -301,17 +315,19 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
         for (const bool top : {false, true}) {
             const auto [hs, hl] = top ? mTubes[h].members.back() : mTubes[h].members.front();
             const glm::dvec2 holeCenter = mLoops[hs][hl].view.center;
-            int best = -1;
-            double bestDistance2 = 0.0;
-            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
-                const Tube& outer = mTubes[o];
-                const TubeEnd& end = top ? outer.top : outer.bottom;
-                const auto [os, ol] = top ? outer.members.back() : outer.members.front();
-                if (outer.hole || end.hasApex || end.annulus >= 0 || os != hs || !encloses(mLoops[os][ol].loop, holeCenter))
-                    continue;
-                const glm::dvec2 d = mLoops[os][ol].view.center - holeCenter;
-                if (best < 0 || d.x * d.x + d.y * d.y < bestDistance2) { best = o; bestDistance2 = d.x * d.x + d.y * d.y; }
-            }
+            auto endLoop = [&](int o) -> const SliceLoop& {
+                const auto [os, ol] = top ? mTubes[o].members.back() : mTubes[o].members.front();
+                return mLoops[os][ol];
+            };
+            const int best = nearest(
+                static_cast<int>(mTubes.size()), holeCenter, [&](int o) { return endLoop(o).view.center; },
+                [&](int o) {
+                    const Tube& outer = mTubes[o];
+                    const TubeEnd& end = top ? outer.top : outer.bottom;
+                    const int os = (top ? outer.members.back() : outer.members.front()).first;
+                    return !outer.hole && !end.hasApex && end.annulus < 0 && os == hs &&
+                           encloses(endLoop(o).loop, holeCenter);
+                });
             if (best < 0) continue;
             (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
             (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;
@@ -367,23 +383,13 @@ void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double re
     const SlicePlane endPlane(mVolume, mPlan, wEnd);
     std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
     const glm::dvec2 holeCenter = mLoops[s][hl].view.center;
-    int bestOuter = -1, bestHole = -1;
-    double outerDistance2 = 0.0, holeDistance2 = 0.0;
-    for (int k = 0; k < static_cast<int>(loops.size()); ++k) {
-        const BoundaryLoop& candidate = loops[k];
-        if (std::abs(candidate.area) < mOptions.minContourArea) continue;
-        const glm::dvec2 d = candidate.centroid - holeCenter;
-        const double distance2 = d.x * d.x + d.y * d.y;
-        if (candidate.hole()) {
-            if (encloses(candidate, holeCenter) && (bestHole < 0 || distance2 < holeDistance2)) {
-                bestHole = k;
-                holeDistance2 = distance2;
-            }
-        } else if (encloses(candidate, holeCenter) && (bestOuter < 0 || distance2 < outerDistance2)) {
-            bestOuter = k;
-            outerDistance2 = distance2;
-        }
-    }
+    auto nearestAround = [&](bool holeLoop) {
+        return nearest(static_cast<int>(loops.size()), holeCenter, [&](int k) { return loops[k].centroid; }, [&](int k) {
+            return loops[k].hole() == holeLoop && std::abs(loops[k].area) >= mOptions.minContourArea &&
+                   encloses(loops[k], holeCenter);
+        });
+    };
+    const int bestOuter = nearestAround(false), bestHole = nearestAround(true);
     if (bestOuter < 0 || bestHole < 0) return;
     LoopView outerView = viewFrom(loops[bestOuter], centralPoint(loops[bestOuter]));
     LoopView holeView = viewFrom(loops[bestHole], centralPoint(loops[bestHole]));

@@ -249,14 +249,6 @@ std::vector<glm::ivec2> SlicePlane::eastCracks() const
     const std::vector<glm::ivec2>& origins = mImpl->leafOrigins;
     const Impl& im = *mImpl;
     const SlicePlan& p = *im.plan;
-    // inside(), with the image read in place: this scan reads every pixel of every leaf.
-    auto in = [&](int u, int v) {
-        if (u < p.pixelMin.x || v < p.pixelMin.y || u > p.pixelMax.x || v > p.pixelMax.y) return false;
-        const int x = u - im.imageMin.x, y = v - im.imageMin.y;
-        if (x >= 0 && y >= 0 && x < im.imageWidth && y < im.imageHeight)
-            return im.image[static_cast<std::size_t>(y) * im.imageWidth + x] < 0.0;
-        return im.pixel(u, v) < 0.0;
-    };
     std::vector<glm::ivec2> cracks;
     for (const glm::ivec2& o : origins) {
         // Leaves inside the image and the pixel box (all but a few) are scanned row by row in place.
@@ -272,7 +264,7 @@ std::vector<glm::ivec2> SlicePlane::eastCracks() const
                 const double* row = &im.image[static_cast<std::size_t>(v - im.imageMin.y) * im.imageWidth + x];
                 for (int i = 0; i <= kLeafDim; ++i) mask |= static_cast<unsigned>(row[i] < 0.0) << i;
             } else {
-                for (int i = 0; i <= kLeafDim; ++i) mask |= static_cast<unsigned>(in(o.x + i, v)) << i;
+                for (int i = 0; i <= kLeafDim; ++i) mask |= static_cast<unsigned>(inside(o.x + i, v)) << i;
             }
             for (unsigned east = mask & ~(mask >> 1) & ((1u << kLeafDim) - 1); east != 0; east &= east - 1)
                 cracks.push_back(glm::ivec2(o.x + __builtin_ctz(east), v));

@@ -28,6 +28,13 @@ struct Timing {
     double median = 0.0, min = 0.0, max = 0.0;
 };
 
+// Median and spread of a set of timings.
+Timing summarize(std::vector<double> seconds)
+{
+    std::sort(seconds.begin(), seconds.end());
+    return {seconds[seconds.size() / 2], seconds.front(), seconds.back()};
+}
+
 // Runs `work` once to warm up, then `repeat` times timed; its last result is kept by the caller
 // through the closure.
 Timing measure(int repeat, const std::function<void()>& work)
@@ -41,8 +48,7 @@ Timing measure(int repeat, const std::function<void()>& work)
         work();
         seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
     }
-    std::sort(seconds.begin(), seconds.end());
-    return {seconds[seconds.size() / 2], seconds.front(), seconds.back()};
+    return summarize(std::move(seconds));
 }
 
 // Runs `a` and `b` alternately, `repeat` times each after one untimed run of each: a ratio of
@@ -60,11 +66,7 @@ std::pair<Timing, Timing> measurePair(int repeat, const std::function<void()>& a
             seconds->push_back(std::chrono::duration<double>(Clock::now() - start).count());
         }
     }
-    auto timing = [](std::vector<double>& s) {
-        std::sort(s.begin(), s.end());
-        return Timing{s[s.size() / 2], s.front(), s.back()};
-    };
-    return {timing(sa), timing(sb)};
+    return {summarize(std::move(sa)), summarize(std::move(sb))};
 }
 
 json timingJson(const Timing& t) { return {{"seconds", t.median}, {"min", t.min}, {"max", t.max}}; }
@@ -142,14 +144,14 @@ int runBench(const BenchArgs& args)
                 m = byTiler[k]->buildLevel(level);
                 seconds.push_back(m.tilingSeconds);
             }
-            std::sort(seconds.begin(), seconds.end());
+            const Timing t = summarize(std::move(seconds));
             const TriangleQuality q = measureQuality(m.mesh);
-            row[tilers[k].second] = {{"seconds", seconds[seconds.size() / 2]}, {"min", seconds.front()}, {"max", seconds.back()},
-                                     {"triangles", m.mesh.triangles.size()}, {"bytes", m.tilingBytes},
-                                     {"area", q.area}, {"smallest_angle", q.smallestAngle}};
+            json cell = timingJson(t);
+            cell.update({{"triangles", m.mesh.triangles.size()}, {"bytes", m.tilingBytes}, {"area", q.area},
+                         {"smallest_angle", q.smallestAngle}});
+            row[tilers[k].second] = cell;
             std::printf("| %d | %d | %s | %.5f | %zu | %zu | %.1f | %.2f |\n", level + 1, options.baseRays << level,
-                        tilers[k].second, seconds[seconds.size() / 2], m.mesh.triangles.size(), m.tilingBytes, q.area,
-                        q.smallestAngle);
+                        tilers[k].second, t.median, m.mesh.triangles.size(), m.tilingBytes, q.area, q.smallestAngle);
         }
         table1.push_back(row);
     }
@@ -174,13 +176,12 @@ int runBench(const BenchArgs& args)
                 casting.push_back(refined.castingSeconds);
                 scratch.push_back(r.buildLevel(level + 1).seconds);
             }
-            std::sort(refine.begin(), refine.end());
-            std::sort(casting.begin(), casting.end());
-            std::sort(scratch.begin(), scratch.end());
-            const double a = refine[refine.size() / 2], c = casting[casting.size() / 2], b = scratch[scratch.size() / 2];
+            const Timing refineTime = summarize(refine), scratchTime = summarize(scratch);
+            const double a = refineTime.median, c = summarize(casting).median, b = scratchTime.median;
             rows.push_back({{"from", level}, {"refine_seconds", a}, {"new_rays_seconds", c}, {"scratch_seconds", b},
-                            {"ratio", a / b}, {"refine_per_new_rays", a / c}, {"refine_min", refine.front()},
-                            {"refine_max", refine.back()}, {"scratch_min", scratch.front()}, {"scratch_max", scratch.back()}});
+                            {"ratio", a / b}, {"refine_per_new_rays", a / c}, {"refine_min", refineTime.min},
+                            {"refine_max", refineTime.max}, {"scratch_min", scratchTime.min},
+                            {"scratch_max", scratchTime.max}});
             std::printf("| %d | %.5f | %.5f | %.5f | %.2f | %.2f |\n", level, a, c, b, a / b, a / c);
         }
         report["refinement"] = rows;
