@@ -313,7 +313,8 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     for (int h = 0; h < static_cast<int>(mTubes.size()); ++h) {
         if (!mTubes[h].hole) continue;
         for (const bool top : {false, true}) {
-            const auto [hs, hl] = top ? mTubes[h].members.back() : mTubes[h].members.front();
+            const std::pair<int, int> holeEnd = top ? mTubes[h].members.back() : mTubes[h].members.front();
+            const int hs = holeEnd.first, hl = holeEnd.second; // named, not bound: lambdas below use them
             const glm::dvec2 holeCenter = mLoops[hs][hl].view.center;
             auto endLoop = [&](int o) -> const SliceLoop& {
                 const auto [os, ol] = top ? mTubes[o].members.back() : mTubes[o].members.front();
