@@ -7,6 +7,8 @@
 #include <pipetile/error.h>
 #include <pipetile/slicer.h>
 
+#include <glm/geometric.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -246,27 +248,39 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     const std::vector<glm::dvec2>& poly = view.polygon;
     const double inwardSign = contour.hole ? -1.0 : 1.0;
 
-    // Ray coordinate of each point: its angle in turns * n0 * 2^level, the last factor exact, so
-    // a point compares with ray x of level L exactly as with ray 2x of level L+1: levels nest.
-    const double scale = static_cast<double>(rays.baseRays) * static_cast<double>(1LL << rays.level);
+    // Ray coordinate of each point: its angle in turns * the grid count (n0 * 2^level, times
+    // 2^kFoldDepth with added rays), the power of two exact, so a point compares with ray x of
+    // level L exactly as with ray 2x of level L+1, or the same angle on a finer grid: levels nest.
+    const long grid = rays.gridCount();
+    const double scale = static_cast<double>(grid);
     std::vector<double> rho(m);
     for (std::size_t i = 0; i < m; ++i) rho[i] = view.turns[i] * scale;
 
     struct Hit { int ray; CrossingKind kind; double crackT; int segment; long long along; int old; };
     std::vector<Hit> hits;
     hits.reserve(2 * static_cast<std::size_t>(n) + (coarse ? coarse->crossings.size() : 0));
-    // Ray x of the coarse level is ray 2x here; only odd rays are new.
-    auto isNew = [&](long x) { return coarse == nullptr || ((x % 2) + 2) % 2 == 1; };
-    // Ray directions, computed once per thread for each ray count (a sincos per crossing cost
-    // more than the rest of the intersection).
-    thread_local std::vector<glm::dvec2> directions;
-    if (static_cast<int>(directions.size()) != n) {
-        directions.resize(n);
+    // Grid index x -> ray index, or -1 where the grid has no ray. Rays the coarse contour has
+    // (its grid is `coarseStep` times coarser) are not cast again.
+    const AddedRays* added = rays.added.get();
+    auto rayAt = [&](long x) { return added ? added->rank[x] : static_cast<int>(x); };
+    const long coarseStep = coarse ? grid / coarse->rays.gridCount() : 1; // a power of two
+    const AddedRays* coarseAdded = coarse ? coarse->rays.added.get() : nullptr;
+    auto isNew = [&](long x) {
+        if (coarse == nullptr || (x & (coarseStep - 1)) != 0) return true;
+        return coarseAdded != nullptr && coarseAdded->rank[x / coarseStep] < 0;
+    };
+    // Ray directions: for the level's own rays computed once per thread and ray count (a sincos
+    // per crossing cost more than the rest of the intersection); added rays carry their own. Both
+    // from the same fraction of a turn, so the same angle gives the same bits.
+    thread_local std::vector<glm::dvec2> uniformDirections;
+    if (!added && static_cast<int>(uniformDirections.size()) != n) {
+        uniformDirections.resize(n);
         for (int ray = 0; ray < n; ++ray) {
             const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
-            directions[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
+            uniformDirections[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
         }
     }
+    const std::vector<glm::dvec2>& directions = added ? added->directions : uniformDirections;
     auto direction = [&](int ray) { return directions[ray]; };
     // Distance along the ray to where it meets segment ab: solve for the point on the segment and
     // clamp it there, so a ray running along the segment (a near-zero cross product) still meets
@@ -284,29 +298,31 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     for (std::size_t i = 0; i < m; ++i) {
         const std::size_t j = (i + 1) % m;
         double delta = rho[j] - rho[i];
-        if (delta > 0.5 * n) delta -= n;
-        if (delta < -0.5 * n) delta += n;
+        if (delta > 0.5 * scale) delta -= scale;
+        if (delta < -0.5 * scale) delta += scale;
         if (delta == 0.0) continue;
         const long fa = static_cast<long>(rho[i]), fb = static_cast<long>(rho[j]); // floor: rho >= 0
         if (delta > 0.0) {
-            const long last = fb + (rho[j] < rho[i] ? n : 0);
+            const long last = fb + (rho[j] < rho[i] ? grid : 0);
             for (long x = fa + 1; x <= last; ++x) {
-                if (!isNew(x)) continue;
-                const int ray = static_cast<int>(x % n);
+                const long wrapped = x < grid ? x : x - grid; // x < 2 * grid
+                const int ray = rayAt(wrapped);
+                if (ray < 0 || !isNew(wrapped)) continue;
                 hits.push_back({ray, CrossingKind::InOut, crackDistance(ray, poly[i], poly[j]), static_cast<int>(i), x, -1});
             }
         } else {
-            const long last = fb + 1 - (rho[j] > rho[i] ? n : 0);
+            const long last = fb + 1 - (rho[j] > rho[i] ? grid : 0);
             for (long x = fa; x >= last; --x) {
-                if (!isNew(x)) continue;
-                const int ray = static_cast<int>(((x % n) + n) % n);
+                const long wrapped = x >= 0 ? x : x + grid; // x > -grid
+                const int ray = rayAt(wrapped);
+                if (ray < 0 || !isNew(wrapped)) continue;
                 hits.push_back({ray, CrossingKind::OutIn, crackDistance(ray, poly[i], poly[j]), static_cast<int>(i), -x, -1});
             }
         }
     }
-    // Merge the coarse crossings back in walk order: same segment, positions along it doubled.
-    // The new hits are in walk order already, and the coarse contour is its walk order rotated to
-    // its start: one merge, no sort. (Coarse positions are even, new ones odd: no ties.)
+    // Merge the coarse crossings back in walk order: same segment, positions along it scaled to
+    // this grid. The new hits are in walk order already, and the coarse contour is its walk order
+    // rotated to its start: one merge, no sort. (New and coarse rays differ: no ties.)
     if (coarse) {
         auto walkOrder = [](const Hit& a, const Hit& b) {
             return a.segment != b.segment ? a.segment < b.segment : a.along < b.along;
@@ -319,7 +335,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
         const std::size_t fresh = hits.size();
         for (std::size_t i = 0; i < old.size(); ++i) {
             const std::size_t k = (first + i) % old.size();
-            hits.push_back({2 * old[k].ray, old[k].kind, old[k].crackT, old[k].segment, 2 * old[k].along, static_cast<int>(k)});
+            const int ray = rayAt(coarse->rays.gridIndex(old[k].ray) * coarseStep);
+            hits.push_back({ray, old[k].kind, old[k].crackT, old[k].segment, coarseStep * old[k].along, static_cast<int>(k)});
         }
         std::inplace_merge(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(fresh), hits.end(), walkOrder);
     }
@@ -488,11 +505,15 @@ Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySe
     return castRaysImpl(viewFrom(loop, center), rays, [&](const glm::dvec2& p) { return image.sample(p); });
 }
 
-Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane)
+Contour refineContour(const Contour& coarse, const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     if (coarse.crossings.empty()) return coarse;
-    return castRaysImpl(view, RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
-                        [&](const glm::dvec2& p) { return plane.sample(p); }, &coarse);
+    return castRaysImpl(view, rays, [&](const glm::dvec2& p) { return plane.sample(p); }, &coarse);
+}
+
+Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane)
+{
+    return refineContour(coarse, view, coarse.rays.next(), plane);
 }
 
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane)
@@ -500,11 +521,108 @@ Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const Sli
     return refineContour(coarse, viewFrom(loop, coarse.center), plane);
 }
 
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays, const FieldImage& image)
 {
     if (coarse.crossings.empty()) return coarse;
-    return castRaysImpl(viewFrom(loop, coarse.center), RaySet{coarse.rays.baseRays, coarse.rays.level + 1},
-                        [&](const glm::dvec2& p) { return image.sample(p); }, &coarse);
+    return castRaysImpl(viewFrom(loop, coarse.center), rays, [&](const glm::dvec2& p) { return image.sample(p); }, &coarse);
+}
+
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
+{
+    return refineContour(coarse, loop, coarse.rays.next(), image);
+}
+
+namespace {
+
+// A set of rays given by their indices on the grid of n0 * 2^(level + kFoldDepth) angles.
+RaySet addedRaySet(int baseRays, int level, std::vector<long> fine)
+{
+    auto added = std::make_shared<AddedRays>();
+    const long grid = static_cast<long>(baseRays) << (level + RaySet::kFoldDepth);
+    added->rank.assign(static_cast<std::size_t>(grid), -1);
+    added->directions.reserve(fine.size());
+    for (std::size_t r = 0; r < fine.size(); ++r) {
+        added->rank[fine[r]] = static_cast<int>(r);
+        // The same fraction of a turn as the uniform table's ray / count: the same bits.
+        const double angle = kTwoPi * (static_cast<double>(fine[r]) / static_cast<double>(grid));
+        added->directions.push_back(glm::dvec2(std::cos(angle), std::sin(angle)));
+    }
+    added->fine = std::move(fine);
+    return RaySet{baseRays, level, std::move(added)};
+}
+
+} // namespace
+
+RaySet RaySet::withMidpoints(const std::vector<int>& sectors) const
+{
+    const int n = count();
+    // On the finer grid: the level's own rays are every 2^kFoldDepth-th index.
+    const long step = added ? 1 : 1L << kFoldDepth;
+    const long grid = static_cast<long>(baseRays) << (level + kFoldDepth);
+    std::vector<long> fine;
+    fine.reserve(static_cast<std::size_t>(n) + sectors.size());
+    for (int x = 0; x < n; ++x) fine.push_back(gridIndex(x) * step);
+    bool grew = false;
+    for (int x : sectors) {
+        const long a = gridIndex(x) * step, b = x + 1 < n ? gridIndex(x + 1) * step : grid;
+        if (b - a < 2) continue; // halved kFoldDepth times already
+        fine.push_back((a + b) / 2);
+        grew = true;
+    }
+    if (!grew) return *this;
+    std::sort(fine.begin(), fine.end());
+    return addedRaySet(baseRays, level, std::move(fine));
+}
+
+RaySet RaySet::next() const
+{
+    if (!added) return RaySet{baseRays, level + 1};
+    // Grid indices double; the next level's own rays are every 2^kFoldDepth-th of its grid.
+    const long grid = static_cast<long>(baseRays) << (level + 1 + kFoldDepth);
+    std::vector<long> fine;
+    fine.reserve(added->fine.size() + static_cast<std::size_t>(uniformCount()));
+    for (long x = 0; x < grid; x += 1L << kFoldDepth) fine.push_back(x);
+    for (long x : added->fine) fine.push_back(2 * x);
+    std::sort(fine.begin(), fine.end());
+    fine.erase(std::unique(fine.begin(), fine.end()), fine.end());
+    return addedRaySet(baseRays, level + 1, std::move(fine));
+}
+
+std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, double tolerance)
+{
+    std::vector<int> sectors;
+    const std::size_t count = contour.crossings.size();
+    const int n = contour.rays.count();
+    if (count <= static_cast<std::size_t>(n)) return sectors; // one crossing per ray: no fold
+    const std::size_t m = view.polygon.size();
+    const double tolerance2 = tolerance * tolerance;
+    for (std::size_t k = 0; k < count; ++k) {
+        const Crossing& a = contour.crossings[k];
+        const Crossing& b = contour.crossings[(k + 1) % count];
+        if (a.ray != b.ray || a.segment == b.segment) continue;
+        // The walk between them: polygon points a.segment + 1 .. b.segment. How far from the
+        // chord ab, and on which side of the ray (counterclockwise: sector a.ray).
+        const glm::dvec2 chord = b.point - a.point;
+        const double chord2 = glm::dot(chord, chord);
+        const glm::dvec2 d = a.point - contour.center; // along the ray
+        double farthest2 = 0.0, side = 0.0;
+        for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
+            const glm::dvec2 p = view.polygon[i];
+            const double s = chord2 > 0.0 ? std::clamp(glm::dot(p - a.point, chord) / chord2, 0.0, 1.0) : 0.0;
+            const glm::dvec2 off = p - (a.point + s * chord);
+            const double distance2 = glm::dot(off, off);
+            if (distance2 > farthest2) {
+                farthest2 = distance2;
+                side = d.x * (p.y - contour.center.y) - d.y * (p.x - contour.center.x);
+            }
+            if (i == static_cast<std::size_t>(b.segment)) break;
+        }
+        if (farthest2 <= tolerance2) continue;
+        sectors.push_back(side > 0.0 ? a.ray : (a.ray + n - 1) % n);
+    }
+    std::sort(sectors.begin(), sectors.end());
+    sectors.erase(std::unique(sectors.begin(), sectors.end()), sectors.end());
+    return sectors;
 }
 
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)

@@ -336,6 +336,19 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             addRimContours(mTubes[best], mTubes[h], top, reach, kEndInset);
         }
     }
+    // Ray groups: a tube, joined with the tubes an annulus ties it to (their end contours are
+    // tiled together, so they must share their rays).
+    std::vector<int> group(mTubes.size());
+    for (std::size_t t = 0; t < mTubes.size(); ++t) group[t] = static_cast<int>(t);
+    auto root = [&](int t) {
+        while (group[t] != t) t = group[t] = group[group[t]];
+        return t;
+    };
+    for (std::size_t t = 0; t < mTubes.size(); ++t)
+        for (const TubeEnd* end : {&mTubes[t].bottom, &mTubes[t].top})
+            if (end->annulus >= 0) group[root(end->annulus)] = root(static_cast<int>(t));
+    for (std::size_t t = 0; t < mTubes.size(); ++t)
+        for (const auto& [s, l] : mTubes[t].members) mLoops[s][l].group = root(static_cast<int>(t));
     for (const Tube& tube : mTubes)
         for (const TubeEnd* end : {&tube.bottom, &tube.top}) {
             if (end->annulus >= 0) continue;
@@ -436,6 +449,7 @@ Reconstruction::Contours Reconstruction::castLevel(int level) const
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
         for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.view, rays, plane));
     });
+    addFoldRays(contours);
     return contours;
 }
 
@@ -448,7 +462,58 @@ Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse) 
         for (std::size_t l = 0; l < mLoops[s].size(); ++l)
             contours[s].push_back(refineContour(coarse[s][l], mLoops[s][l].view, plane));
     });
+    addFoldRays(contours);
     return contours;
+}
+
+void Reconstruction::addFoldRays(Contours& contours) const
+{
+    // Half a voxel: a chord farther than that from the boundary it stands for is a visible error
+    // (the caps' own inset is half a voxel too).
+    constexpr double kFoldTolerance = 0.5;
+    const std::size_t groups = mTubes.size(); // group ids are tube indices
+    for (int round = 0; round <= RaySet::kFoldDepth; ++round) {
+        std::vector<std::vector<std::vector<int>>> flagged(mLoops.size()); // per plane, per loop
+        forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
+            for (std::size_t l = 0; l < mLoops[s].size(); ++l)
+                if (mLoops[s][l].group >= 0)
+                    flagged[s].push_back(hiddenFolds(contours[s][l], mLoops[s][l].view, kFoldTolerance));
+                else
+                    flagged[s].emplace_back();
+        });
+        std::vector<std::vector<int>> sectors(groups);
+        std::vector<const RaySet*> current(groups, nullptr);
+        for (std::size_t s = 0; s < mLoops.size(); ++s)
+            for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
+                const int g = mLoops[s][l].group;
+                if (g < 0 || flagged[s][l].empty()) continue;
+                sectors[g].insert(sectors[g].end(), flagged[s][l].begin(), flagged[s][l].end());
+                current[g] = &contours[s][l].rays;
+            }
+        std::vector<RaySet> grown(groups);
+        std::vector<bool> grows(groups, false);
+        bool any = false;
+        for (std::size_t g = 0; g < groups; ++g) {
+            if (!current[g]) continue;
+            std::sort(sectors[g].begin(), sectors[g].end());
+            sectors[g].erase(std::unique(sectors[g].begin(), sectors[g].end()), sectors[g].end());
+            grown[g] = current[g]->withMidpoints(sectors[g]);
+            grows[g] = grown[g].count() != current[g]->count();
+            any = any || grows[g];
+        }
+        if (!any) return;
+        forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
+            bool touched = false;
+            for (const SliceLoop& l : mLoops[s]) touched = touched || (l.group >= 0 && grows[l.group]);
+            if (!touched) return;
+            const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+            for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
+                const int g = mLoops[s][l].group;
+                if (g >= 0 && grows[g])
+                    contours[s][l] = refineContour(contours[s][l], mLoops[s][l].view, grown[g], plane);
+            }
+        });
+    }
 }
 
 LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
@@ -477,8 +542,11 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
             const Contour& c = contours[s][l];
-            if (c.crossings.empty() || countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != rays.count())
-                throw std::logic_error("pipetile internal invariant broken: contour does not wind once (#F - #B != n)");
+            if (c.crossings.empty() || countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != c.rays.count() ||
+                c.rays.count() != contours[tube.members[0].first][tube.members[0].second].rays.count())
+                throw std::logic_error("pipetile internal invariant broken: a contour does not wind once (#F - #B != n), or "
+                                       "differs in rays from its tube");
+            if (k == 0) result.addedRays += c.rays.count() - rays.count();
             ++result.contours;
             result.ambiguousContours += isUnambiguous(c) ? 0 : 1;
             result.interpolationFallbacks += c.interpolationFallbacks;

@@ -193,6 +193,7 @@ int runMesh(const MeshArgs& args)
         report["levels"].push_back({
             {"level", level.level},
             {"rays", level.rays},
+            {"added_rays", level.addedRays},
             {"file", written[k]},
             {"vertices", level.mesh.vertices.size()},
             {"triangles", level.mesh.triangles.size()},

@@ -6,6 +6,8 @@
 #include <glm/vec2.hpp>
 
 #include <cstdint>
+#include <memory>
+#include <utility>
 #include <vector>
 
 namespace pipetile {
@@ -39,12 +41,41 @@ struct BoundaryLoop {
     bool hole() const { return area < 0.0; }
 };
 
+/// Rays a tube adds between its level's own, where a fold hides the boundary from them
+/// (see hiddenFolds). They come from the same dyadic family: a sector is halved at most
+/// RaySet::kFoldDepth times, so every ray lies on the grid of baseRays * 2^(level + kFoldDepth)
+/// evenly spaced angles, and the rays of one level stay rays of the next.
+struct AddedRays {
+    std::vector<long> fine;             // every ray of the set: its index on that grid, ascending
+    std::vector<int> rank;              // per grid index: its ray index in `fine`, or -1
+    std::vector<glm::dvec2> directions; // per ray: unit direction
+};
+
 /// Which rays a contour is cast with: level L uses baseRays * 2^L rays at angles 2*pi*x / count,
-/// so every ray of level L is also a ray of level L+1 (DESIGN.md, Rays).
+/// so every ray of level L is also a ray of level L+1 (DESIGN.md, Rays), plus the rays its tube
+/// added where folds hide detail (`added`; then ray indices count those too).
 struct RaySet {
-    int baseRays = 8; // n0, at least 3 (with 2 rays, F and B could not be told apart)
-    int level = 0;
-    int count() const { return baseRays << level; }
+    static constexpr int kFoldDepth = 2; // a sector is halved at most twice for a fold
+
+    RaySet(int baseRays = 8, int level = 0, std::shared_ptr<const AddedRays> added = nullptr)
+        : baseRays(baseRays), level(level), added(std::move(added)) {}
+
+    int baseRays; // n0, at least 3 (with 2 rays, F and B could not be told apart)
+    int level;
+    std::shared_ptr<const AddedRays> added; // null: the level's own rays only
+
+    int count() const { return added ? static_cast<int>(added->fine.size()) : baseRays << level; }
+    int uniformCount() const { return baseRays << level; }
+    /// The grid every ray lies on: the level's own rays, or with added rays kFoldDepth levels finer.
+    long gridCount() const { return static_cast<long>(baseRays) << (level + (added ? kFoldDepth : 0)); }
+    /// Grid index of ray `ray` (an index into this set).
+    long gridIndex(int ray) const { return added ? added->fine[ray] : ray; }
+
+    /// These rays plus one in the middle of each listed sector (sector x runs from ray x to ray
+    /// x+1) that can still be halved.
+    RaySet withMidpoints(const std::vector<int>& sectors) const;
+    /// The next level: its own rays and the rays added here.
+    RaySet next() const;
 };
 
 /// Crossing of a ray with the boundary (paper §3).
@@ -72,8 +103,8 @@ struct Crossing {
     double t = 0.0;           // distance from the centre to the interpolated surface: fixes position
     glm::dvec2 point{0.0};    // in-plane position, pixel units
     int segment = 0;          // walk position: the loop polygon's segment the ray crosses, and
-    long long along = 0;      // the order along it, in this level's ray units (refinement merges
-                              // new crossings into old ones by it)
+    long long along = 0;      // the order along it, in grid units of the ray set (refinement
+                              // merges new crossings into old ones by it)
 };
 
 /// A contour: the crossings of one boundary loop in walk order, starting at the outermost InOut
@@ -123,12 +154,22 @@ Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& pla
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);
 
-/// Refinement (paper §4.3): the same loop's contour at the next level. Only the new rays (between
-/// the coarse ones) are cast; the coarse crossings are kept as they are and the new ones inserted
-/// by walk position. Identical to casting every ray of the next level from scratch.
+/// Refinement (paper §4.3): the same loop's contour with more rays, `rays` (which must hold every
+/// ray of the coarse contour), or by default the next level's. Only the new rays are cast; the
+/// coarse crossings are kept as they are and the new ones inserted by walk position. Identical to
+/// casting every ray from scratch.
 Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane);
+Contour refineContour(const Contour& coarse, const LoopView& view, const RaySet& rays, const SlicePlane& plane);
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane);
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image);
+Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays, const FieldImage& image);
+
+/// Folds that hide detail: where the walk leaves a ray and comes back to it without reaching the
+/// next ray, the contour joins the two crossings by a chord along the ray, and the boundary
+/// between (an arm's tip, a bulge) lies in the sector beside it, unseen. Returns, ascending and
+/// once each, the sectors (x: from ray x to x+1) where that boundary lies farther than
+/// `tolerance` pixels from its chord; a ray in the middle of each would see it.
+std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, double tolerance);
 
 /// Edge type from two consecutive crossings (DESIGN.md, Edge types): integers only.
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount);

@@ -38,7 +38,9 @@ struct MeshOptions {
 /// One level of detail and what it took.
 struct LevelMesh {
     int level = 0;
-    int rays = 0;                  // rays per contour at this level
+    int rays = 0;                  // rays per contour at this level (the level's own)
+    long long addedRays = 0;       // rays the tubes added where folds hide detail, summed over
+                                   // tubes (each casts its added rays on all its contours)
     TriangleMesh mesh;
     double seconds = 0.0;          // ray casting and tiling of this level
     double castingSeconds = 0.0;   // of which casting rays (sampling, root finding, edge types);
@@ -97,11 +99,20 @@ private:
     using Contours = std::vector<std::vector<Contour>>; // per plane, per loop
     Contours castLevel(int level) const;
     Contours refineContours(const Contours& coarse) const;
+    /// Rays where folds hide detail (contour.h, hiddenFolds): each ray group (a tube, or the two
+    /// walls of a hollow pipe joined by an annulus, which share one band) halves every sector
+    /// that a fold of any of its contours flags, and its contours are refined with the new rays,
+    /// until no fold is flagged or the sectors are halved RaySet::kFoldDepth times. A sector's
+    /// flag depends on its two rays alone, so the rays added at level L are added again at L+1:
+    /// levels still nest, and a refined level equals the level built from scratch.
+    void addFoldRays(Contours& contours) const;
     LevelMesh assemble(const Contours& contours, int level) const;
 
     struct SliceLoop {
         BoundaryLoop loop;
         LoopView view; // from its central point: what every level's rays are cut against
+        int group = -1; // its tube's ray group (contours tiled together share their rays); -1:
+                        // in no tube
     };
     struct TubeEnd {
         bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
