@@ -176,6 +176,32 @@ void checkNesting(const Contour& coarse, const Contour& fine)
     FUZZ_CHECK(fineKeys == coarseKeys);
 }
 
+// Added rays (contour.h, hiddenFolds and RaySet::withMidpoints): refining a contour with them
+// equals casting all of them, and keeps every crossing it had, bit for bit.
+void checkAddedRays(const Contour& c, const BoundaryLoop& loop, const glm::dvec2& center, const FieldImage& image)
+{
+    if (c.crossings.empty()) return;
+    const std::vector<int> sectors = hiddenFolds(c, viewFrom(loop, center), 0.5);
+    for (std::size_t k = 0; k < sectors.size(); ++k)
+        FUZZ_CHECK(sectors[k] >= 0 && sectors[k] < c.rays.count() && (k == 0 || sectors[k - 1] < sectors[k]));
+    const RaySet grown = c.rays.withMidpoints(sectors);
+    if (grown.count() == c.rays.count()) return;
+    const Contour refined = refineContour(c, loop, grown, image);
+    const Contour scratch = castRays(loop, center, grown, image);
+    checkContour(scratch, loop, center, grown);
+    auto points = [](const Contour& x) {
+        std::vector<std::pair<double, double>> p;
+        for (const Crossing& k : x.crossings) p.emplace_back(k.point.x, k.point.y);
+        return p;
+    };
+    FUZZ_CHECK(points(refined) == points(scratch));
+    if (scratch.crossings.empty()) return;
+    std::vector<std::pair<double, double>> all = points(refined), old = points(c);
+    std::sort(all.begin(), all.end());
+    std::sort(old.begin(), old.end());
+    FUZZ_CHECK(std::includes(all.begin(), all.end(), old.begin(), old.end()));
+}
+
 // tileBand: m + n triangles, ids < m + n, a closed strip in which every contour edge lies in one
 // triangle, A's edges run i -> i+1 and B's (j+1) -> j (counterclockwise seen from outside), and
 // consecutive triangles share a spanning edge. For contours of at least 3 crossings the strip
@@ -314,6 +340,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 const RaySet rays{baseRays, level};
                 contours[level].push_back(castRays(loop, c, rays, image));
                 checkContour(contours[level].back(), loop, c, rays);
+                checkAddedRays(contours[level].back(), loop, c, image);
                 if (level > 0) checkNesting(contours[level - 1].back(), contours[level].back());
             }
         }

@@ -199,3 +199,95 @@ TEST(Contour, LevelsNestBitForBit)
         EXPECT_EQ(coarse.crossings[i].point.y, fine.crossings[4 * i].point.y);
     }
 }
+
+namespace {
+
+// A disc (radius 6) with a stem at -15 degrees carrying an arc (radius 11 to 15) that reaches
+// counterclockwise to `reach` degrees; a signed field, negative inside.
+FieldImage hookImage(const glm::dvec2& c, double reachDegrees)
+{
+    FieldImage image;
+    image.width = image.height = 41;
+    image.values.resize(41 * 41);
+    const double degree = M_PI / 180.0;
+    for (int v = 0; v < 41; ++v)
+        for (int u = 0; u < 41; ++u) {
+            const glm::dvec2 p(u - c.x, v - c.y);
+            const double r = std::hypot(p.x, p.y), angle = std::atan2(p.y, p.x);
+            const double disc = r - 6.0;
+            const double along = p.x * std::cos(-15 * degree) + p.y * std::sin(-15 * degree);
+            const double across = -p.x * std::sin(-15 * degree) + p.y * std::cos(-15 * degree);
+            const double stem = std::max(std::abs(across) - 2.0, std::abs(along - 9.0) - 4.0);
+            const double outside = std::max(angle - reachDegrees * degree, -15 * degree - angle);
+            const double arc = std::max(std::abs(r - 13.0) - 2.0, outside * r);
+            image.values[static_cast<std::size_t>(v) * 41 + u] = std::min({disc, stem, arc});
+        }
+    return image;
+}
+
+// How many crossings of `coarse` are crossings of `fine`, bit for bit.
+std::size_t sharedCrossings(const Contour& coarse, const Contour& fine)
+{
+    std::size_t shared = 0;
+    for (const Crossing& a : coarse.crossings)
+        for (const Crossing& b : fine.crossings)
+            if (a.point.x == b.point.x && a.point.y == b.point.y) { ++shared; break; }
+    return shared;
+}
+
+} // namespace
+
+TEST(Contour, AddedRaysSeeAFoldTheLevelsRaysHide)
+{
+    // Ray 0 of 8 crosses the arc twice in a row (a fold): the contour joins those crossings by a
+    // chord along the ray, and the arc's end beyond it, up to 15 sin 28° = 7 pixels from that
+    // chord, lies in sector 0 (0 to 45°), unseen.
+    const glm::dvec2 center(20.3, 20.2);
+    const FieldImage image = hookImage(center, 28.0);
+    const std::vector<BoundaryLoop> loops = traceBoundaries(image);
+    ASSERT_EQ(loops.size(), 1u);
+    const LoopView view = viewFrom(loops[0], center);
+    const Contour c0 = castRays(loops[0], center, RaySet{8, 0}, image);
+    // A small one too, in sector 7: from the arc back to the disc the walk follows the arc's inner
+    // edge and the stem's upper side (the stem, 4 wide around -15°, meets the arc at -15° +
+    // asin(2/11) = -4.5°), up to 11 sin 4.5° = 0.9 pixel from the chord on ray 0.
+    ASSERT_EQ(c0.crossings.size(), 10u); // ray 0: disc, arc in, arc out
+    EXPECT_EQ(hiddenFolds(c0, view, 0.5), (std::vector<int>{0, 7}));
+    EXPECT_EQ(hiddenFolds(c0, view, 1.5), std::vector<int>{0});
+    EXPECT_TRUE(hiddenFolds(c0, view, 6.0).size() == 1 && hiddenFolds(c0, view, 7.5).empty());
+
+    // Halving sector 0 casts a ray at 22.5°, through the arc: the fold moves to the arc's end
+    // beyond that ray, about 15 sin 5.5° = 1.4 pixels from it, in sector 1 (22.5° to 45°).
+    const RaySet once = RaySet{8, 0}.withMidpoints({0});
+    ASSERT_EQ(once.count(), 9);
+    const Contour c1 = refineContour(c0, loops[0], once, image);
+    const Contour scratch1 = castRays(loops[0], center, once, image);
+    ASSERT_EQ(c1.crossings.size(), scratch1.crossings.size());
+    EXPECT_EQ(sharedCrossings(c1, scratch1), c1.crossings.size()); // refining = casting all
+    EXPECT_EQ(sharedCrossings(c0, c1), c0.crossings.size());      // the old rays' crossings stay
+    for (const Crossing& x : c1.crossings)
+        if (x.ray == 1) EXPECT_NEAR(std::atan2(x.point.y - center.y, x.point.x - center.x), M_PI / 8, 1e-12);
+    EXPECT_EQ(hiddenFolds(c1, view, 0.5), (std::vector<int>{1, 8})); // sector 7 is sector 8 now
+    EXPECT_EQ(hiddenFolds(c1, view, 1.0), std::vector<int>{1});
+    EXPECT_TRUE(hiddenFolds(c1, view, 2.0).empty());
+
+    // Once more (33.75°, past the arc's end): the fold stays, and its sector cannot be halved a
+    // third time (RaySet::kFoldDepth).
+    const RaySet twice = once.withMidpoints({1});
+    ASSERT_EQ(twice.count(), 10);
+    const Contour c2 = refineContour(c1, loops[0], twice, image);
+    EXPECT_EQ(hiddenFolds(c2, view, 1.0), std::vector<int>{1});
+    EXPECT_EQ(twice.withMidpoints({1}).count(), 10);
+
+    // The next level keeps the added rays (22.5° is now its own ray 2; 33.75° is added): 17 rays,
+    // every crossing of this level among them, bit for bit, refined or cast from scratch.
+    const RaySet next = twice.next();
+    EXPECT_EQ(next.level, 1);
+    EXPECT_EQ(next.count(), 17);
+    const Contour c3 = refineContour(c2, loops[0], image);
+    const Contour scratch3 = castRays(loops[0], center, next, image);
+    ASSERT_EQ(c3.crossings.size(), scratch3.crossings.size());
+    EXPECT_EQ(sharedCrossings(c3, scratch3), c3.crossings.size());
+    EXPECT_EQ(sharedCrossings(c2, c3), c2.crossings.size());
+    EXPECT_EQ(countEdges(c3, EdgeType::Forward) - countEdges(c3, EdgeType::Backward), 17);
+}

@@ -41,8 +41,8 @@ TEST(Multires, StraightCapsuleHasTheExactTriangleCount)
     // band is active where |phi| < 3 voxels: z from 4 to 124, so slices sit at z = 4, 6, ..., 124.
     // Slices at z = 6 and 122 touch only the tips (radius 0, nothing strictly inside), those
     // beyond are empty, and z = 8 .. 120 (radius >= 6) each hold one circle: 57 contours. The
-    // axis meets the tips at z = 6 and 122, so an end contour is added half a voxel inside each
-    // (z = 6.5 and 121.5, radius sqrt(100 - 9.5^2) = 3.1): 59 contours in one tube.
+    // axis meets the tips at z = 6 and 122, so an end contour is added a quarter voxel inside each
+    // (z = 6.25 and 121.75, radius sqrt(100 - 9.75^2) = 2.2): 59 contours in one tube.
     // Circles are star-shaped: n crossings each, two triangles per crossing (bands of m_k + m_k+1,
     // caps of m around the tips): 2 * n * 59 triangles, n * 59 + 2 vertices (2 cap apexes).
     const Volume& v = cachedSample("straight");
@@ -117,6 +117,10 @@ TEST(Multires, BeanIsClosedAndCrossesRaysMoreThanOnce)
     const LevelMesh top = r.buildLevel(3);
     EXPECT_GT(top.crossings, static_cast<long long>(top.contours) * top.rays);
     expectClosedSphere(top.mesh, 1);
+    // Where a ray crosses an arm tip twice in a row, the tip beyond it hides in the sector beside
+    // it: the tube adds rays there at every level. The phantom is star-shaped and adds none.
+    for (int level = 0; level < 4; ++level) EXPECT_GT(r.buildLevel(level).addedRays, 0);
+    EXPECT_EQ(Reconstruction(cachedSample("phantom"), MeshOptions{}).buildLevel(3).addedRays, 0);
 }
 
 TEST(Multires, HollowPipeIsOneClosedSurfaceWithAnnularRims)

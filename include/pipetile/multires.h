@@ -63,7 +63,7 @@ struct ReconstructionStats {
     int droppedSmall = 0;          // cross-sections below minContourArea
     int droppedUnwound = 0;        // loops that do not wind around their central point
     int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
-    int endContours = 0;           // contours added half a voxel inside where a tube ends
+    int endContours = 0;           // contours added a quarter voxel inside where a tube ends
     int tubes = 0;                 // chains of corresponding contours, each closed by two caps
     int flatCaps = 0;              // caps with no apex found past the last slice (closed flat)
     int annularCaps = 0;           // hollow pipe rims: an outer and a hole contour ending in the
