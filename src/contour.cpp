@@ -229,6 +229,32 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
     return true;
 }
 
+// A ray's crossing with the loop's polygon, before its position is refined.
+struct Hit {
+    int ray;
+    CrossingKind kind;
+    double crackT;
+    int segment;
+    long long along;
+    int old; // index of the coarse crossing it is, or -1 if cast here
+};
+
+// castRaysImpl's working arrays, kept per thread: allocating them for every contour and level
+// cost 8% of a run. Reached through one call per contour: inlined, the compiler recomputes a
+// thread_local's address (a call into the dynamic linker, in a shared library) at every use.
+struct CastScratch {
+    std::vector<double> rho;
+    std::vector<Hit> hits;
+    std::vector<int> balance, fresh;
+    std::vector<glm::dvec2> uniformDirections; // for the ray count last cast on this thread
+};
+
+[[gnu::noinline]] CastScratch& castScratch()
+{
+    thread_local CastScratch scratch;
+    return scratch;
+}
+
 // Casts the rays of `rays` against the loop. With `coarse` (the same loop's contour one level
 // down), only the new rays are cast; the coarse crossings are reused as they are and merged in by
 // their walk positions, which gives exactly what casting every ray would (paper §4.3).
@@ -253,11 +279,13 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     // level L exactly as with ray 2x of level L+1, or the same angle on a finer grid: levels nest.
     const long grid = rays.gridCount();
     const double scale = static_cast<double>(grid);
-    std::vector<double> rho(m);
+    CastScratch& scratch = castScratch();
+    std::vector<double>& rho = scratch.rho;
+    rho.resize(m);
     for (std::size_t i = 0; i < m; ++i) rho[i] = view.turns[i] * scale;
 
-    struct Hit { int ray; CrossingKind kind; double crackT; int segment; long long along; int old; };
-    std::vector<Hit> hits;
+    std::vector<Hit>& hits = scratch.hits;
+    hits.clear();
     hits.reserve(2 * static_cast<std::size_t>(n) + (coarse ? coarse->crossings.size() : 0));
     // Grid index x -> ray index, or -1 where the grid has no ray. Rays the coarse contour has
     // (its grid is `coarseStep` times coarser) are not cast again.
@@ -272,7 +300,7 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     // Ray directions: for the level's own rays computed once per thread and ray count (a sincos
     // per crossing cost more than the rest of the intersection); added rays carry their own. Both
     // from the same fraction of a turn, so the same angle gives the same bits.
-    thread_local std::vector<glm::dvec2> uniformDirections;
+    std::vector<glm::dvec2>& uniformDirections = scratch.uniformDirections;
     if (!added && static_cast<int>(uniformDirections.size()) != n) {
         uniformDirections.resize(n);
         for (int ray = 0; ray < n; ++ray) {
@@ -342,7 +370,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     }
     // Every ray must then have one more InOut than OutIn crossing; a segment through the centre
     // itself (half a turn to within rounding) can still break that.
-    std::vector<int> balance(n, 0);
+    std::vector<int>& balance = scratch.balance;
+    balance.assign(n, 0);
     for (const Hit& h : hits) balance[h.ray] += h.kind == CrossingKind::InOut ? 1 : -1;
     for (int b : balance)
         if (b != 1) return contour;
@@ -357,7 +386,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
     std::rotate(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(start), hits.end());
 
     contour.crossings.resize(hits.size());
-    std::vector<int> fresh; // the crossings cast here (not reused), grouped by ray below
+    std::vector<int>& fresh = scratch.fresh; // the crossings cast here (not reused), grouped by ray below
+    fresh.clear();
     fresh.reserve(hits.size());
     if (coarse) contour.interpolationFallbacks = coarse->interpolationFallbacks;
     for (std::size_t k = 0; k < hits.size(); ++k) {
