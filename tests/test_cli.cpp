@@ -79,6 +79,7 @@ TEST(Cli, MeshesStraightSampleAsStarContours)
     const nlohmann::json j = meshAndCheck(dir, dir.path("straight.vdb"), "", 1);
     for (const auto& level : j["levels"]) {
         EXPECT_EQ(level["ambiguous_contours"].get<int>(), 0);
+        EXPECT_EQ(level["added_rays"].get<int>(), 0); // no folds: no rays added
         EXPECT_EQ(level["contours"].get<int>(), 59);
         EXPECT_EQ(level["triangles"].get<long long>(), 2LL * level["rays"].get<int>() * 59);
     }

@@ -2,8 +2,9 @@
 //
 // A Reconstruction does the level-independent work once (slices, boundary loops, central points,
 // contour correspondence, end-cap apexes); each level then casts its own rays and tiles. Level L
-// casts baseRays * 2^L rays, and every ray of level L is a ray of level L+1, so level L's vertices
-// are a subset of level L+1's, bit for bit.
+// casts baseRays * 2^L rays, plus, in a tube whose sections fold, rays from the next levels'
+// angles where a fold hides detail (addFoldRays); every ray of level L is a ray of level L+1, so
+// level L's vertices are a subset of level L+1's, bit for bit.
 #pragma once
 
 #include <pipetile/contour.h>
