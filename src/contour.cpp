@@ -229,6 +229,60 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
     return true;
 }
 
+// Position along a ray, in closed form: the root of the field in the pixel cell where the ray
+// meets the loop's polygon. The field is bilinear in a cell, so along a line it is quadratic in
+// t; the polygon's segment there is the chord of the cell's zero curve (marching squares), so the
+// ray almost always meets that curve in the same cell. Takes the root of the right direction
+// nearest the polygon, within the cell and [lower, upper]; false if there is none (the caller
+// then searches along the ray). Gives what root finding on the samples converges to, without
+// the dozen samples it takes.
+template <class Field>
+bool cellRoot(const Field& field, const glm::dvec2& center, const glm::dvec2& d, double sign, bool rising,
+              double crackT, double lower, double upper, double& t)
+{
+    const glm::dvec2 p = center + crackT * d;
+    int u = static_cast<int>(p.x), v = static_cast<int>(p.y); // floor, inline (no SSE4.1 round)
+    u -= p.x < u ? 1 : 0;
+    v -= p.y < v ? 1 : 0;
+    const double fu = u, fv = v;
+    double f[4];
+    field.cell(u, v, f);
+    const double f00 = sign * f[0], f10 = sign * f[1], f01 = sign * f[2], f11 = sign * f[3];
+    // g(crackT + tau) = C + B tau + A tau^2, around the polygon's point (s, r) in the cell.
+    const double s = p.x - fu, r = p.y - fv;
+    const double a = f10 - f00, b = f01 - f00, c = f11 - f10 - f01 + f00;
+    const double C = f00 + s * a + r * b + s * r * c;
+    const double B = a * d.x + b * d.y + c * (s * d.y + r * d.x);
+    const double A = c * d.x * d.y;
+    double roots[2];
+    int count = 0;
+    if (A == 0.0) {
+        if (B == 0.0) return false;
+        roots[count++] = -C / B;
+    } else {
+        const double discriminant = B * B - 4.0 * A * C;
+        if (discriminant < 0.0) return false;
+        const double q = -0.5 * (B + std::copysign(std::sqrt(discriminant), B)); // no cancellation
+        roots[count++] = q / A;
+        if (q != 0.0) roots[count++] = C / q;
+    }
+    constexpr double kInCell = 1e-9;
+    bool found = false;
+    double best = 0.0;
+    for (int k = 0; k < count; ++k) {
+        const double tau = roots[k];
+        const double slope = B + 2.0 * A * tau;
+        if (!(rising ? slope > 0.0 : slope < 0.0)) continue;
+        const double su = s + tau * d.x, rv = r + tau * d.y;
+        if (!(su >= -kInCell && su <= 1.0 + kInCell && rv >= -kInCell && rv <= 1.0 + kInCell)) continue;
+        const double candidate = crackT + tau;
+        if (!(candidate >= lower && candidate <= upper)) continue;
+        if (!found || std::abs(tau) < std::abs(best)) { best = tau; found = true; }
+    }
+    if (found) t = crackT + best;
+    return found;
+}
+
 // A ray's crossing with the loop's polygon, before its position is refined.
 struct Hit {
     int ray;
@@ -258,8 +312,8 @@ struct CastScratch {
 // Casts the rays of `rays` against the loop. With `coarse` (the same loop's contour one level
 // down), only the new rays are cast; the coarse crossings are reused as they are and merged in by
 // their walk positions, which gives exactly what casting every ray would (paper §4.3).
-template <class SampleFn>
-Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& field, const Contour* coarse = nullptr)
+template <class Field>
+Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& field, const Contour* coarse = nullptr)
 {
     Contour contour;
     const glm::dvec2 center = view.center;
@@ -415,16 +469,18 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const SampleFn& f
         const std::size_t count = last - first;
         for (std::size_t k = 0; k < count; ++k) contour.crossings[ids[k]].depth = static_cast<int>(k);
         const glm::dvec2 d = direction(ray);
-        auto g = [&](double t) { return inwardSign * field(center + t * d); };
+        auto g = [&](double t) { return inwardSign * field.sample(center + t * d); };
         for (std::size_t k = 0; k < count; ++k) {
             Crossing& c = contour.crossings[ids[k]];
             // Never past the neighbouring crossings of the same ray, so the order stays the walk's.
             double lowest = 0.0, highest = std::numeric_limits<double>::infinity();
             if (k > 0) lowest = 0.5 * (contour.crossings[ids[k - 1]].crackT + c.crackT);
             if (k + 1 < count) highest = 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT);
-            // The polygon lies within its chord error of the surface: search close to it first.
-            bool found = false;
+            // In closed form where the polygon meets the ray; else search along the ray, close to
+            // the polygon first (it lies within its chord error of the surface).
+            bool found = cellRoot(field, center, d, inwardSign, c.kind == CrossingKind::InOut, c.crackT, lowest, highest, c.t);
             for (double reach : {0.5, 1.5}) {
+                if (found) break;
                 const double lower = std::max(c.crackT - reach, lowest), upper = std::min(c.crackT + reach, highest);
                 if ((found = refineCrossing(g, c.kind == CrossingKind::InOut, c.crackT, lower, upper, c.t))) break;
             }
@@ -450,6 +506,14 @@ double FieldImage::value(int u, int v) const
     const int x = u - origin.x, y = v - origin.y;
     if (x < 0 || y < 0 || x >= width || y >= height) return 1.0;
     return values[static_cast<std::size_t>(y) * width + x];
+}
+
+void FieldImage::cell(int u, int v, double values[4]) const
+{
+    values[0] = value(u, v);
+    values[1] = value(u + 1, v);
+    values[2] = value(u, v + 1);
+    values[3] = value(u + 1, v + 1);
 }
 
 double FieldImage::sample(const glm::dvec2& uv) const
@@ -522,7 +586,7 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
 
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
-    return castRaysImpl(view, rays, [&](const glm::dvec2& p) { return plane.sample(p); });
+    return castRaysImpl(view, rays, plane);
 }
 
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane)
@@ -532,13 +596,13 @@ Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySe
 
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
 {
-    return castRaysImpl(viewFrom(loop, center), rays, [&](const glm::dvec2& p) { return image.sample(p); });
+    return castRaysImpl(viewFrom(loop, center), rays, image);
 }
 
 Contour refineContour(const Contour& coarse, const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     if (coarse.crossings.empty()) return coarse;
-    return castRaysImpl(view, rays, [&](const glm::dvec2& p) { return plane.sample(p); }, &coarse);
+    return castRaysImpl(view, rays, plane, &coarse);
 }
 
 Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane)
@@ -554,7 +618,7 @@ Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const Sli
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays, const FieldImage& image)
 {
     if (coarse.crossings.empty()) return coarse;
-    return castRaysImpl(viewFrom(loop, coarse.center), rays, [&](const glm::dvec2& p) { return image.sample(p); }, &coarse);
+    return castRaysImpl(viewFrom(loop, coarse.center), rays, image, &coarse);
 }
 
 Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)

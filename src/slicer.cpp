@@ -175,6 +175,39 @@ struct SlicePlane::Impl {
         return signedValue(accessor.getValue(c));
     }
 
+    void readCell(int u, int v, double f[4]) const
+    {
+        const int x = u - imageMin.x, y = v - imageMin.y;
+        if (x >= 0 && y >= 0 && x + 1 < imageWidth && y + 1 < imageHeight) {
+            const double* row = &image[static_cast<std::size_t>(y) * imageWidth + x];
+            f[0] = row[0]; f[1] = row[1]; f[2] = row[imageWidth]; f[3] = row[imageWidth + 1];
+            return;
+        }
+        if ((u & (kLeafDim - 1)) == kLeafDim - 1 || (v & (kLeafDim - 1)) == kLeafDim - 1) {
+            f[0] = pixel(u, v); f[1] = pixel(u + 1, v); f[2] = pixel(u, v + 1); f[3] = pixel(u + 1, v + 1);
+            return;
+        }
+        // All four pixels lie in one leaf per voxel plane: read its buffer directly, at
+        // (x & 7) * 64 + (y & 7) * 8 + (z & 7).
+        constexpr int kStride[3] = {kLeafDim * kLeafDim, kLeafDim, 1};
+        for (int plane = 0; plane < (frac == 0.0 ? 1 : 2); ++plane) {
+            openvdb::Coord c;
+            c[plan->axis] = w0 + plane;
+            c[ua] = u;
+            c[va] = v;
+            double g[4];
+            if (const openvdb::FloatTree::LeafNodeType* leaf = accessor.probeConstLeaf(c)) {
+                const float* at = leaf->buffer().data() + openvdb::FloatTree::LeafNodeType::coordToOffset(c);
+                const int du = kStride[ua], dv = kStride[va];
+                g[0] = signedValue(at[0]); g[1] = signedValue(at[du]);
+                g[2] = signedValue(at[dv]); g[3] = signedValue(at[du + dv]);
+            } else {
+                g[0] = g[1] = g[2] = g[3] = signedValue(accessor.getValue(c)); // one tile holds all four
+            }
+            for (int k = 0; k < 4; ++k) f[k] = plane == 0 ? g[k] : f[k] + frac * (g[k] - f[k]);
+        }
+    }
+
     double pixel(int u, int v) const
     {
         const int x = u - imageMin.x, y = v - imageMin.y;
@@ -215,11 +248,16 @@ double SlicePlane::sample(const glm::dvec2& uv) const
     // Root finding along a ray samples the same pixel cell several times in a row.
     Impl::Cell& cell = mImpl->cell;
     if (!cell.valid || cell.u != u || cell.v != v) {
-        cell = {true, u, v, {mImpl->pixel(u, v), mImpl->pixel(u + 1, v), mImpl->pixel(u, v + 1), mImpl->pixel(u + 1, v + 1)}};
+        cell.valid = true;
+        cell.u = u;
+        cell.v = v;
+        mImpl->readCell(u, v, cell.values);
     }
     const double* f = cell.values;
     return (1.0 - t) * (f[0] + s * (f[1] - f[0])) + t * (f[2] + s * (f[3] - f[2]));
 }
+
+void SlicePlane::cell(int u, int v, double values[4]) const { mImpl->readCell(u, v, values); }
 
 double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
 {

@@ -24,6 +24,7 @@ struct FieldImage {
     double value(int u, int v) const;
     bool inside(int u, int v) const { return value(u, v) < 0.0; }
     double sample(const glm::dvec2& uv) const; // bilinear
+    void cell(int u, int v, double values[4]) const; // (u, v), (u + 1, v), (u, v + 1), (u + 1, v + 1)
 };
 
 /// The crack boundary of one connected set of inside pixels, walked with the inside on the left

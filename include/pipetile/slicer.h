@@ -58,6 +58,9 @@ public:
     bool inside(int u, int v) const;
     /// Bilinear field at a continuous in-plane point, in pixel units.
     double sample(const glm::dvec2& uv) const;
+    /// The four pixels of the bilinear cell at (u, v): value(u, v), value(u + 1, v),
+    /// value(u, v + 1), value(u + 1, v + 1), read together (one leaf lookup, not four).
+    void cell(int u, int v, double values[4]) const;
     /// Trilinear field at (u, v) on another plane w; end caps look past the last slice with it.
     double sampleAt(const glm::dvec2& uv, double w) const;
     /// Pixels p inside whose neighbour p + (1, 0) is outside: every boundary loop has at least one
