@@ -81,9 +81,12 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
     };
     const std::size_t maxCorners = 4 * static_cast<std::size_t>(boxMax.x - boxMin.x + 2) * (boxMax.y - boxMin.y + 2) + 4;
 
+    std::size_t expected = 64; // cracks: the last loop's count, so vectors rarely grow twice
     for (const glm::ivec2& seed : eastCracks) {
         if (seen(seed)) continue;
         BoundaryLoop loop;
+        loop.corners.reserve(expected);
+        loop.points.reserve(expected);
         const glm::ivec2 start(seed.x + 1, seed.y); // the crack east of `seed`, walked north
         glm::ivec2 c = start;
         int d = 1;
@@ -91,19 +94,20 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             loop.corners.push_back(c);
             // The surface crosses the segment between this crack's inside and outside pixel
             // centres where the linearly interpolated field is zero (a marching-squares point).
-            const glm::ivec2 in = c + kLeft[d], out = c + kLeft[(d + 3) % 4];
+            const glm::ivec2 in = c + kLeft[d], out = c + kLeft[(d + 3) & 3];
             const double fin = value(in.x, in.y), fout = value(out.x, out.y);
             const double s = fin < fout ? std::clamp(fin / (fin - fout), 0.0, 1.0) : 0.5;
             loop.points.push_back(glm::dvec2(in) + s * glm::dvec2(out - in));
             if (d == 1) mark(c + kLeft[1]); // its left pixel is the seed it would start from
             c += kStep[d];
-            const bool aheadRight = inside(c.x + kLeft[(d + 3) % 4].x, c.y + kLeft[(d + 3) % 4].y);
+            const bool aheadRight = inside(c.x + kLeft[(d + 3) & 3].x, c.y + kLeft[(d + 3) & 3].y);
             const bool aheadLeft = inside(c.x + kLeft[d].x, c.y + kLeft[d].y);
-            if (aheadRight) d = (d + 3) % 4;  // inside continues to the right (8-connected)
-            else if (!aheadLeft) d = (d + 1) % 4; // inside ends ahead: turn left around it
+            if (aheadRight) d = (d + 3) & 3;  // inside continues to the right (8-connected)
+            else if (!aheadLeft) d = (d + 1) & 3; // inside ends ahead: turn left around it
             check(loop.corners.size() <= maxCorners, "boundary walk did not close");
         } while (!(c == start && d == 1));
         finishLoop(loop);
+        expected = loop.corners.size() + loop.corners.size() / 8;
         loops.push_back(std::move(loop));
     }
     return loops;
