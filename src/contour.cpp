@@ -33,6 +33,29 @@ void check(bool condition, const char* what)
 
 glm::dvec2 cornerPoint(const glm::ivec2& c) { return {c.x - 0.5, c.y - 0.5}; }
 
+// Angle of (x, y) around the origin in turns, in [0, 1), to within 2e-12 turn: rays only need
+// which side of each ray a point lies on, and libm's correctly rounded atan2 was 7% of a run.
+// Octant reduction to z in [0, 1]; above tan 15 degrees, atan z = 30 degrees + atan w with
+// w = (sqrt3 z - 1) / (sqrt3 + z), so |w| <= tan 15 degrees; then the odd series of atan w to
+// w^15 (alternating: the first term left out, w^17 / 17, is below 1.1e-11 rad).
+double turnsOf(double x, double y)
+{
+    constexpr double kPi = 3.14159265358979323846, kTan15 = 0.26794919243112270, kSqrt3 = 1.7320508075688772;
+    const double ax = std::abs(x), ay = std::abs(y);
+    const bool steep = ay > ax;
+    const double z = steep ? ax / ay : ax > 0.0 ? ay / ax : 0.0;
+    const bool reduced = z > kTan15;
+    const double w = reduced ? (kSqrt3 * z - 1.0) / (kSqrt3 + z) : z, w2 = w * w;
+    double series = -1.0 / 15.0;
+    for (const double c : {1.0 / 13.0, -1.0 / 11.0, 1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0, 1.0}) series = series * w2 + c;
+    double angle = w * series + (reduced ? kPi / 6.0 : 0.0); // in [0, pi/4]
+    if (steep) angle = 0.5 * kPi - angle;
+    if (x < 0.0) angle = kPi - angle;
+    double turns = angle / kTwoPi;
+    if (y < 0.0) turns = 1.0 - turns;
+    return turns >= 1.0 ? 0.0 : turns;
+}
+
 // The change of angle from one polygon point to the next, in turns, taken the short way round:
 // the same rule as the crossing loop of castRaysImpl, which wraps at half of n rays.
 double wrappedDelta(double delta)
@@ -577,10 +600,7 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
     for (std::size_t i = 0; i < m; ++i) {
         const glm::dvec2 p = loop.points[view.hole ? m - 1 - i : i];
         view.polygon[i] = p;
-        double turn = std::atan2(p.y - center.y, p.x - center.x) / kTwoPi;
-        if (turn < 0.0) turn += 1.0;
-        if (turn >= 1.0) turn -= 1.0;
-        view.turns[i] = turn;
+        view.turns[i] = turnsOf(p.x - center.x, p.y - center.y);
         if (i > 0) total += wrappedDelta(view.turns[i] - view.turns[i - 1]);
     }
     if (m > 0) total += wrappedDelta(view.turns[0] - view.turns[m - 1]);

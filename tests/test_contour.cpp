@@ -291,3 +291,26 @@ TEST(Contour, AddedRaysSeeAFoldTheLevelsRaysHide)
     EXPECT_EQ(sharedCrossings(c2, c3), c2.crossings.size());
     EXPECT_EQ(countEdges(c3, EdgeType::Forward) - countEdges(c3, EdgeType::Backward), 17);
 }
+
+TEST(Contour, ViewAnglesAgreeWithAtan2)
+{
+    // LoopView::turns comes from a series, not libm's atan2 (contour.cpp, turnsOf): within
+    // 2e-12 turn of atan2 / 2 pi at every point of a loop around an off-lattice centre, in all
+    // eight octants, and in [0, 1).
+    const FieldImage image = circleImage({15.2, 14.6}, 11.3, 31);
+    const BoundaryLoop loop = traceBoundaries(image).at(0);
+    for (const glm::dvec2 center : {glm::dvec2(15.2, 14.6), glm::dvec2(15.0, 15.0), glm::dvec2(13.37, 16.01)}) {
+        const LoopView view = viewFrom(loop, center);
+        ASSERT_EQ(view.turns.size(), loop.points.size());
+        EXPECT_EQ(view.winding, 1);
+        for (std::size_t i = 0; i < loop.points.size(); ++i) {
+            const glm::dvec2 p = loop.points[i] - center;
+            double expected = std::atan2(p.y, p.x) / (2.0 * M_PI);
+            if (expected < 0.0) expected += 1.0;
+            double error = std::abs(view.turns[i] - expected);
+            error = std::min(error, 1.0 - error);
+            EXPECT_LT(error, 2e-12) << p.x << " " << p.y;
+            EXPECT_TRUE(view.turns[i] >= 0.0 && view.turns[i] < 1.0);
+        }
+    }
+}
