@@ -405,7 +405,7 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
     // (backward, OutIn); a corner exactly on a ray counts on the >= side, so no crossing is lost
     // or counted twice.
     for (std::size_t i = 0; i < m; ++i) {
-        const std::size_t j = (i + 1) % m;
+        const std::size_t j = i + 1 == m ? 0 : i + 1; // not % m: a division per point and level
         double delta = rho[j] - rho[i];
         if (delta > 0.5 * scale) delta -= scale;
         if (delta < -0.5 * scale) delta += scale;
