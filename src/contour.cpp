@@ -80,10 +80,20 @@ void finishLoop(BoundaryLoop& loop)
     loop.centroid = area2 != 0.0 ? glm::dvec2(cx / (3.0 * area2), cy / (3.0 * area2)) : cornerPoint(loop.corners[0]);
 }
 
+// Pixels the walk may read in place: corner c's four pixels (c - (1, 1) to c) lie in a row-major
+// array, and inside() there is just value < 0, when lo <= c <= hi. The walk reads four pixels per
+// crack; through inside() and value() each read cost two bounds checks and an index.
+struct DirectPixels {
+    const double* values = nullptr;
+    glm::ivec2 origin{0}; // pixel of values[0]
+    int width = 0;
+    glm::ivec2 lo{1}, hi{0}; // corners whose four pixels are readable: none by default
+};
+
 // The chain-code walk over every loop of an image, seeded from its east-facing cracks. `inside`
 // must read false outside [boxMin, boxMax] so that every walk closes; `value` is the field.
 template <class InsideFn, class ValueFn>
-std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& value,
+std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& value, const DirectPixels& direct,
                                      const std::vector<glm::ivec2>& eastCracks, glm::ivec2 boxMin, glm::ivec2 boxMax)
 {
     std::vector<BoundaryLoop> loops;
@@ -104,6 +114,13 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
     };
     const std::size_t maxCorners = 4 * static_cast<std::size_t>(boxMax.x - boxMin.x + 2) * (boxMax.y - boxMin.y + 2) + 4;
 
+    // Corner c's pixel c + kLeft[k], as an offset from pixel c in the direct array.
+    int offset[4];
+    for (int k = 0; k < 4; ++k) offset[k] = kLeft[k].y * direct.width + kLeft[k].x;
+    auto pixelsAt = [&](glm::ivec2 c) -> const double* {
+        if (c.x < direct.lo.x || c.y < direct.lo.y || c.x > direct.hi.x || c.y > direct.hi.y) return nullptr;
+        return direct.values + static_cast<std::ptrdiff_t>(c.y - direct.origin.y) * direct.width + (c.x - direct.origin.x);
+    };
     std::size_t expected = 64; // cracks: the last loop's count, so vectors rarely grow twice
     for (const glm::ivec2& seed : eastCracks) {
         if (seen(seed)) continue;
@@ -118,13 +135,17 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             // The surface crosses the segment between this crack's inside and outside pixel
             // centres where the linearly interpolated field is zero (a marching-squares point).
             const glm::ivec2 in = c + kLeft[d], out = c + kLeft[(d + 3) & 3];
-            const double fin = value(in.x, in.y), fout = value(out.x, out.y);
+            const double* here = pixelsAt(c);
+            const double fin = here ? here[offset[d]] : value(in.x, in.y);
+            const double fout = here ? here[offset[(d + 3) & 3]] : value(out.x, out.y);
             const double s = fin < fout ? std::clamp(fin / (fin - fout), 0.0, 1.0) : 0.5;
             loop.points.push_back(glm::dvec2(in) + s * glm::dvec2(out - in));
             if (d == 1) mark(c + kLeft[1]); // its left pixel is the seed it would start from
             c += kStep[d];
-            const bool aheadRight = inside(c.x + kLeft[(d + 3) & 3].x, c.y + kLeft[(d + 3) & 3].y);
-            const bool aheadLeft = inside(c.x + kLeft[d].x, c.y + kLeft[d].y);
+            const double* ahead = pixelsAt(c);
+            const bool aheadRight = ahead ? ahead[offset[(d + 3) & 3]] < 0.0
+                                          : inside(c.x + kLeft[(d + 3) & 3].x, c.y + kLeft[(d + 3) & 3].y);
+            const bool aheadLeft = ahead ? ahead[offset[d]] < 0.0 : inside(c.x + kLeft[d].x, c.y + kLeft[d].y);
             if (aheadRight) d = (d + 3) & 3;  // inside continues to the right (8-connected)
             else if (!aheadLeft) d = (d + 1) & 3; // inside ends ahead: turn left around it
             check(loop.corners.size() <= maxCorners, "boundary walk did not close");
@@ -568,7 +589,13 @@ std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
         return u >= plan.pixelMin.x && v >= plan.pixelMin.y && u <= plan.pixelMax.x && v <= plan.pixelMax.y &&
                value(u, v) < 0.0;
     };
-    return traceLoops(inside, value, seeds, plan.pixelMin, plan.pixelMax + 1);
+    DirectPixels direct;
+    if (window.values) {
+        direct = {window.values, window.min, window.width,
+                  glm::max(window.min, plan.pixelMin) + 1,
+                  glm::min(window.min + glm::ivec2(window.width, window.height) - 1, plan.pixelMax)};
+    }
+    return traceLoops(inside, value, direct, seeds, plan.pixelMin, plan.pixelMax + 1);
 }
 
 std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
@@ -577,8 +604,10 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
     for (int v = image.origin.y; v < image.origin.y + image.height; ++v)
         for (int u = image.origin.x; u < image.origin.x + image.width; ++u)
             if (image.inside(u, v) && !image.inside(u + 1, v)) seeds.push_back({u, v});
+    const DirectPixels direct{image.values.data(), image.origin, image.width, image.origin + 1,
+                              image.origin + glm::ivec2(image.width, image.height) - 1};
     return traceLoops([&](int u, int v) { return image.inside(u, v); },
-                      [&](int u, int v) { return image.value(u, v); }, seeds, image.origin - 1,
+                      [&](int u, int v) { return image.value(u, v); }, direct, seeds, image.origin - 1,
                       image.origin + glm::ivec2(image.width, image.height));
 }
 
