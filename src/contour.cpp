@@ -533,7 +533,9 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
                 if ((found = refineCrossing(g, c.kind == CrossingKind::InOut, c.crackT, lower, upper, c.t))) break;
             }
             if (!found) {
-                c.t = c.crackT;
+                // On the polygon, and never behind the centre: where the polygon passes through
+                // the centre itself (a centre on the boundary), crackT is 0 only up to rounding.
+                c.t = std::max(c.crackT, 0.0);
                 ++contour.interpolationFallbacks;
             }
             c.point = center + c.t * d;
