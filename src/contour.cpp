@@ -571,33 +571,26 @@ double FieldImage::sample(const glm::dvec2& uv) const
     const double fu = std::floor(uv.x), fv = std::floor(uv.y);
     const int u = static_cast<int>(fu), v = static_cast<int>(fv);
     const double s = uv.x - fu, t = uv.y - fv;
-    const double a = value(u, v), b = value(u + 1, v), c = value(u, v + 1), d = value(u + 1, v + 1);
-    return (1.0 - t) * (a + s * (b - a)) + t * (c + s * (d - c));
+    double f[4];
+    cell(u, v, f);
+    return (1.0 - t) * (f[0] + s * (f[1] - f[0])) + t * (f[2] + s * (f[3] - f[2]));
 }
 
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
 {
     const SlicePlan& plan = plane.plan();
     const std::vector<glm::ivec2> seeds = plane.eastCracks();
-    // The plane's own inside() and value(), reading its image in place where it has one.
+    // The walk reads the plane's image in place; the plane's inside() and value() serve the
+    // corners at its edges and planes without one.
     const SlicePlane::Window window = plane.window();
-    auto value = [&](int u, int v) {
-        const int x = u - window.min.x, y = v - window.min.y;
-        if (x >= 0 && y >= 0 && x < window.width && y < window.height)
-            return window.values[static_cast<std::size_t>(y) * window.width + x];
-        return plane.value(u, v);
-    };
-    auto inside = [&](int u, int v) {
-        return u >= plan.pixelMin.x && v >= plan.pixelMin.y && u <= plan.pixelMax.x && v <= plan.pixelMax.y &&
-               value(u, v) < 0.0;
-    };
     DirectPixels direct;
     if (window.values) {
         direct = {window.values, window.min, window.width,
                   glm::max(window.min, plan.pixelMin) + 1,
                   glm::min(window.min + glm::ivec2(window.width, window.height) - 1, plan.pixelMax)};
     }
-    return traceLoops(inside, value, direct, seeds, plan.pixelMin, plan.pixelMax + 1);
+    return traceLoops([&](int u, int v) { return plane.inside(u, v); }, [&](int u, int v) { return plane.value(u, v); },
+                      direct, seeds, plan.pixelMin, plan.pixelMax + 1);
 }
 
 std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
