@@ -632,6 +632,35 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
     return view;
 }
 
+RadialProfile radialProfile(const LoopView& view, int directions)
+{
+    RadialProfile profile;
+    profile.nearest.assign(directions, std::numeric_limits<double>::infinity());
+    profile.farthest.assign(directions, -std::numeric_limits<double>::infinity());
+    const std::size_t m = view.polygon.size();
+    for (std::size_t i = 0; i < m; ++i) {
+        // The segment covers the angles from one end's to the other's, the short way round
+        // (points are a fraction of a pixel apart, far closer than half a turn); each direction
+        // in [lo, hi) meets it once, so a loop winding once gives every direction a crossing.
+        const std::size_t j = (i + 1) % m;
+        const double from = view.turns[i], delta = wrappedDelta(view.turns[j] - from);
+        if (delta == 0.0) continue;
+        const double lo = std::min(from, from + delta), hi = std::max(from, from + delta);
+        const glm::dvec2 p = view.polygon[i] - view.center, e = view.polygon[j] - view.polygon[i];
+        for (long k = static_cast<long>(std::ceil(lo * directions)); k < std::ceil(hi * directions); ++k) {
+            const double angle = kTwoPi * static_cast<double>(k) / directions;
+            const glm::dvec2 u{std::cos(angle), std::sin(angle)};
+            const double denominator = u.x * e.y - u.y * e.x;
+            if (denominator == 0.0) continue;
+            const double r = (p.x * e.y - p.y * e.x) / denominator;
+            const std::size_t d = static_cast<std::size_t>((k % directions + directions) % directions);
+            profile.nearest[d] = std::min(profile.nearest[d], r);
+            profile.farthest[d] = std::max(profile.farthest[d], r);
+        }
+    }
+    return profile;
+}
+
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     return castRaysImpl(view, rays, plane);

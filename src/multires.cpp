@@ -351,6 +351,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             if (end->annulus >= 0) group[root(end->annulus)] = root(static_cast<int>(t));
     for (std::size_t t = 0; t < mTubes.size(); ++t)
         for (const auto& [s, l] : mTubes[t].members) mLoops[s][l].group = root(static_cast<int>(t));
+    chooseSlices();
     for (const Tube& tube : mTubes)
         for (const TubeEnd* end : {&tube.bottom, &tube.top}) {
             if (end->annulus >= 0) continue;
@@ -372,6 +373,82 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
                          " would need about " + std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
                          " GiB for the finest level (" + std::to_string(mStats.contours) + " contours); lower --levels");
     mStats.seconds = secondsSince(start);
+}
+
+void Reconstruction::chooseSlices()
+{
+    for (const Tube& tube : mTubes)
+        for (std::size_t k = 0; k < tube.members.size(); ++k) {
+            const bool end = k == 0 || k + 1 == tube.members.size();
+            mLoops[tube.members[k].first][tube.members[k].second].fromLevel = end || mOptions.everySlice ? 0 : kNever;
+        }
+    if (mOptions.everySlice) return;
+    // Profiles along the finest level's directions (at most 256: finer rays see nothing a slice's
+    // polygon shows that 256 directions miss), so that what a level skips does not depend on its
+    // own rays.
+    const int directions =
+        static_cast<int>(std::min(static_cast<long long>(mOptions.baseRays) << (mOptions.levels - 1), 256LL));
+    std::vector<std::vector<RadialProfile>> profiles(mLoops.size());
+    forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
+        profiles[s].resize(mLoops[s].size());
+        for (std::size_t l = 0; l < mLoops[s].size(); ++l)
+            if (mLoops[s][l].group >= 0) profiles[s][l] = radialProfile(mLoops[s][l].view, directions);
+    });
+    std::vector<glm::dvec2> unit(directions);
+    for (int d = 0; d < directions; ++d) {
+        const double angle = 2.0 * 3.14159265358979323846 * d / directions;
+        unit[d] = {std::cos(angle), std::sin(angle)};
+    }
+    for (const Tube& tube : mTubes) {
+        const auto profileOf = [&](std::size_t k) -> const RadialProfile& {
+            return profiles[tube.members[k].first][tube.members[k].second];
+        };
+        const auto loopOf = [&](std::size_t k) -> SliceLoop& { return mLoops[tube.members[k].first][tube.members[k].second]; };
+        const auto wOf = [&](std::size_t k) { return mPositions[tube.members[k].first]; };
+        // The coarsest level at which the span from member a to member b must keep its middle: the
+        // first whose sagitta (on the larger of the two end loops) some member between them
+        // exceeds, where it departs from the straight interpolation of a and b, direction by
+        // direction, in its nearest and its farthest crossing. Rays pair crossings of one
+        // direction from each slice's own centre, and so does this.
+        const auto splitLevel = [&](std::size_t a, std::size_t b) {
+            const RadialProfile& pa = profileOf(a);
+            const RadialProfile& pb = profileOf(b);
+            const glm::dvec2 ca = loopOf(a).view.center, cb = loopOf(b).view.center;
+            double radius = 0.0, deviation = 0.0;
+            for (int d = 0; d < directions; ++d) radius = std::max({radius, pa.farthest[d], pb.farthest[d]});
+            for (std::size_t j = a + 1; j < b; ++j) {
+                const double t = (wOf(j) - wOf(a)) / (wOf(b) - wOf(a));
+                const RadialProfile& pj = profileOf(j);
+                const glm::dvec2 centre = loopOf(j).view.center - (ca + t * (cb - ca));
+                for (int d = 0; d < directions; ++d) {
+                    const double near = pj.nearest[d] - (pa.nearest[d] + t * (pb.nearest[d] - pa.nearest[d]));
+                    const double far = pj.farthest[d] - (pa.farthest[d] + t * (pb.farthest[d] - pa.farthest[d]));
+                    for (const double dr : {near, far}) {
+                        const glm::dvec2 miss = centre + dr * unit[d];
+                        deviation = std::max(deviation, glm::length(miss));
+                    }
+                }
+            }
+            if (!std::isfinite(deviation)) return 0; // a direction with no crossing: keep all
+            for (int level = 0; level < mOptions.levels; ++level) {
+                const double rays = static_cast<double>(static_cast<long long>(mOptions.baseRays) << level);
+                if (deviation > radius * (1.0 - std::cos(3.14159265358979323846 / rays))) return level;
+            }
+            return kNever;
+        };
+        // Halving: a span that exists from level `from` keeps its middle member from the level
+        // it must split at (not before the span exists); the halves then exist from there.
+        const auto split = [&](const auto& self, std::size_t a, std::size_t b, int from) -> void {
+            if (b - a < 2) return;
+            const int level = std::max(from, splitLevel(a, b));
+            if (level == kNever) return;
+            const std::size_t middle = (a + b) / 2;
+            loopOf(middle).fromLevel = level;
+            self(self, a, middle, level);
+            self(self, middle, b, level);
+        };
+        split(split, 0, tube.members.size() - 1, 0);
+    }
 }
 
 void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset)
@@ -449,20 +526,34 @@ Reconstruction::Contours Reconstruction::castLevel(int level) const
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         if (mLoops[s].empty()) return;
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-        for (const SliceLoop& l : mLoops[s]) contours[s].push_back(castRays(l.view, rays, plane));
+        for (const SliceLoop& l : mLoops[s])
+            contours[s].push_back(l.fromLevel <= level ? castRays(l.view, rays, plane) : Contour{});
     });
     addFoldRays(contours);
     return contours;
 }
 
-Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse) const
+Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse, int level) const
 {
+    // A contour the coarse level skipped is cast from scratch, with the rays its group's refined
+    // contours get (they share them): the same contour as refining it would give.
+    std::vector<const RaySet*> groupRays(mTubes.size(), nullptr); // group ids are tube indices
+    for (std::size_t s = 0; s < mLoops.size(); ++s)
+        for (std::size_t l = 0; l < mLoops[s].size(); ++l)
+            if (mLoops[s][l].group >= 0 && !coarse[s][l].crossings.empty()) groupRays[mLoops[s][l].group] = &coarse[s][l].rays;
     Contours contours(mLoops.size());
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         if (mLoops[s].empty()) return;
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-        for (std::size_t l = 0; l < mLoops[s].size(); ++l)
-            contours[s].push_back(refineContour(coarse[s][l], mLoops[s][l].view, plane));
+        for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
+            const SliceLoop& loop = mLoops[s][l];
+            if (!coarse[s][l].crossings.empty())
+                contours[s].push_back(refineContour(coarse[s][l], loop.view, plane));
+            else if (loop.fromLevel <= level)
+                contours[s].push_back(castRays(loop.view, groupRays[loop.group]->next(), plane));
+            else
+                contours[s].emplace_back();
+        }
     });
     addFoldRays(contours);
     return contours;
@@ -478,7 +569,7 @@ void Reconstruction::addFoldRays(Contours& contours) const
         std::vector<std::vector<std::vector<int>>> flagged(mLoops.size()); // per plane, per loop
         forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
             for (std::size_t l = 0; l < mLoops[s].size(); ++l)
-                if (mLoops[s][l].group >= 0)
+                if (mLoops[s][l].group >= 0 && !contours[s][l].crossings.empty())
                     flagged[s].push_back(hiddenFolds(contours[s][l], mLoops[s][l].view, kFoldTolerance));
                 else
                     flagged[s].emplace_back();
@@ -511,7 +602,7 @@ void Reconstruction::addFoldRays(Contours& contours) const
             const SlicePlane plane(mVolume, mPlan, mPositions[s]);
             for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
                 const int g = mLoops[s][l].group;
-                if (g >= 0 && grows[g])
+                if (g >= 0 && grows[g] && !contours[s][l].crossings.empty())
                     contours[s][l] = refineContour(contours[s][l], mLoops[s][l].view, grown[g], plane);
             }
         });
@@ -532,41 +623,49 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     // built in parallel and joined in this order, so the mesh does not depend on the threads.
     struct Member {
         const Tube* tube;
-        std::size_t k;        // position in the tube
+        bool startsTube, endsTube; // the tube's first and last contour (at every level: ends are kept)
         const Contour* contour;
         int slice;
         std::uint32_t first;  // index of its first vertex
         std::uint32_t apex[2]; // bottom, top cap apex (members that end a tube with a fan)
     };
     std::vector<Member> members;
+    std::vector<std::size_t> tubeFirst(mTubes.size()); // index in `members` of each tube's first
     std::uint32_t vertexCount = 0;
-    for (const Tube& tube : mTubes)
+    for (const Tube& tube : mTubes) {
+        tubeFirst[&tube - mTubes.data()] = members.size();
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
+            if (mLoops[s][l].fromLevel > level) {
+                ++result.skippedContours;
+                continue;
+            }
+            const bool startsTube = k == 0, endsTube = k + 1 == tube.members.size();
             const Contour& c = contours[s][l];
             if (c.crossings.empty() || countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != c.rays.count() ||
                 c.rays.count() != contours[tube.members[0].first][tube.members[0].second].rays.count())
                 throw std::logic_error("pipetile internal invariant broken: a contour does not wind once (#F - #B != n), or "
                                        "differs in rays from its tube");
-            if (k == 0) result.addedRays += c.rays.count() - rays.count();
+            if (startsTube) result.addedRays += c.rays.count() - rays.count();
             ++result.contours;
             result.ambiguousContours += isUnambiguous(c) ? 0 : 1;
             result.interpolationFallbacks += c.interpolationFallbacks;
             result.crossings += static_cast<long long>(c.crossings.size());
-            Member member{&tube, k, &c, s, vertexCount, {0, 0}};
+            Member member{&tube, startsTube, endsTube, &c, s, vertexCount, {0, 0}};
             vertexCount += static_cast<std::uint32_t>(c.crossings.size());
-            if (k == 0 && tube.bottom.fan) member.apex[0] = vertexCount++;
-            if (k + 1 == tube.members.size() && tube.top.fan) member.apex[1] = vertexCount++;
+            if (startsTube && tube.bottom.fan) member.apex[0] = vertexCount++;
+            if (endsTube && tube.top.fan) member.apex[1] = vertexCount++;
             members.push_back(member);
         }
+    }
     mesh.vertices.resize(vertexCount);
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
         for (std::size_t j = 0; j < m.contour->crossings.size(); ++j)
             mesh.vertices[m.first + j] =
                 mVolume.indexToWorld(planeToIndex(mPlan.axis, m.contour->crossings[j].point, mPositions[m.slice]));
-        if (m.k == 0 && m.tube->bottom.fan) mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
-        if (m.k + 1 == m.tube->members.size() && m.tube->top.fan)
+        if (m.startsTube && m.tube->bottom.fan) mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
+        if (m.endsTube && m.tube->top.fan)
             mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
     });
 
@@ -586,11 +685,11 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             result.tilingBytes += tree->bytes();
         }
     }
-    // Bands: member i > 0 of a tube joins member i - 1, with vertex indices of both.
+    // Bands: each member but a tube's first joins the one before it, with vertex indices of both.
     std::vector<std::vector<Triangle>> bands(members.size());
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
-        if (m.k == 0) return;
+        if (m.startsTube) return;
         const Member& previous = members[i - 1];
         const std::uint32_t previousCount = static_cast<std::uint32_t>(previous.contour->crossings.size());
         std::vector<Triangle>& band = bands[i];
@@ -641,18 +740,18 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
     // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
     // inward, so it faces +w, outward at the top. The hole's own end gets nothing.
-    std::vector<std::size_t> tubeFirst(mTubes.size(), 0);
-    for (std::size_t i = members.size(); i-- > 0;) tubeFirst[members[i].tube - mTubes.data()] = i;
     auto treeOf = [&](std::size_t i) {
         return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour));
     };
-    auto emitCap = [&](const Member& m, bool top) {
+    auto emitCap = [&](std::size_t self, bool top) {
+        const Member& m = members[self];
         const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
         if (m.tube->hole && end.annulus >= 0) return;
         const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
         if (end.annulus >= 0) {
-            const std::size_t self = tubeFirst[m.tube - mTubes.data()] + m.k;
-            const std::size_t hole = tubeFirst[end.annulus] + (top ? mTubes[end.annulus].members.size() - 1 : 0);
+            std::size_t hole = tubeFirst[end.annulus];
+            if (top)
+                while (!members[hole].endsTube) ++hole;
             for (Triangle t : tileBand(treeOf(self), treeOf(hole))) {
                 for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
                 if (top == mirrored) std::swap(t[1], t[2]);
@@ -683,10 +782,9 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     mesh.triangles.reserve(triangleCount + 2 * (vertexCount - static_cast<std::size_t>(result.crossings)) +
                            4 * mTubes.size());
     for (std::size_t i = 0; i < members.size(); ++i) {
-        const Member& m = members[i];
-        if (m.k == 0) emitCap(m, false);
+        if (members[i].startsTube) emitCap(i, false);
         mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
-        if (m.k + 1 == m.tube->members.size()) emitCap(m, true);
+        if (members[i].endsTube) emitCap(i, true);
     }
     return result;
 }
@@ -707,7 +805,7 @@ const LevelMesh& Refinement::refine()
         throw UsageError("cannot refine past level " + std::to_string(mLevel) + ": the reconstruction has " +
                          std::to_string(mReconstruction->levelCount()) + " levels");
     const Clock::time_point start = Clock::now();
-    mContours = mReconstruction->refineContours(mContours);
+    mContours = mReconstruction->refineContours(mContours, mLevel + 1);
     const double casting = secondsSince(start);
     ++mLevel;
     mMesh = mReconstruction->assemble(mContours, mLevel);

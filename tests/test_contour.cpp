@@ -142,6 +142,39 @@ TEST(Contour, FoldAcrossRayZeroGivesDownInDownOut)
     EXPECT_EQ(countEdges(contour, EdgeType::Forward) - countEdges(contour, EdgeType::Backward), 4);
 }
 
+TEST(Contour, RadialProfileIsWhereTheRaysMeetThePolygonFirstAndLast)
+{
+    // The profile intersects the same polygon as castRays does (crackT: the distance from the
+    // centre to the polygon along the ray), without root finding: per direction, the nearest and
+    // farthest crackT of that ray's crossings. On the hook above ray 0 meets the polygon at 3.5,
+    // 6.5 and 7.5 (so 3.2 and 7.2 from the centre); on a circle every ray meets it once.
+    const FieldImage hook = binaryImage({-3, -3}, {
+        "#######.###", "#######...#", "#######...#", "#######...#", "#######...#", "#######...#", "###########"});
+    const FieldImage circle = circleImage({20.37, 19.81}, 10.3, 41);
+    for (const FieldImage* image : {&hook, &circle}) {
+        const std::vector<BoundaryLoop> loops = traceBoundaries(*image);
+        ASSERT_EQ(loops.size(), 1u);
+        const glm::dvec2 center = image == &hook ? glm::dvec2(0.3, 0.2) : centralPoint(loops[0]);
+        for (const int rays : {4, 64}) {
+            const Contour contour = castRays(loops[0], center, RaySet{rays, 0}, *image);
+            const RadialProfile profile = radialProfile(viewFrom(loops[0], center), rays);
+            ASSERT_EQ(profile.nearest.size(), static_cast<std::size_t>(rays));
+            std::vector<double> nearest(rays, 1e300), farthest(rays, -1e300);
+            for (const Crossing& x : contour.crossings) {
+                nearest[x.ray] = std::min(nearest[x.ray], x.crackT);
+                farthest[x.ray] = std::max(farthest[x.ray], x.crackT);
+            }
+            for (int d = 0; d < rays; ++d) {
+                EXPECT_NEAR(profile.nearest[d], nearest[d], 1e-9) << d;
+                EXPECT_NEAR(profile.farthest[d], farthest[d], 1e-9) << d;
+            }
+        }
+    }
+    const RadialProfile hookProfile = radialProfile(viewFrom(traceBoundaries(hook)[0], {0.3, 0.2}), 4);
+    EXPECT_NEAR(hookProfile.nearest[0], 3.2, 1e-12);
+    EXPECT_NEAR(hookProfile.farthest[0], 7.2, 1e-12);
+}
+
 TEST(Contour, FoldAcrossTwoRaysMakesAnAmbiguousSector)
 {
     // A spiral-like arm: a 5x5 square plus an arm that leaves it upward at the right, turns left

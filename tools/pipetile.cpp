@@ -107,7 +107,7 @@ struct MeshArgs {
     std::string axis = "auto";
     double spacing = 2.0;
     int rays = 8, levels = 4, threads = 0;
-    bool validate = false;
+    bool validate = false, everySlice = false;
     std::string tiler = "contour-tree";
 };
 
@@ -121,6 +121,7 @@ int runMesh(const MeshArgs& args)
     options.baseRays = args.rays;
     options.levels = args.levels;
     options.threads = args.threads;
+    options.everySlice = args.everySlice;
     options.tiler = args.tiler == "optimal" ? pipetile::TilerKind::Optimal
                   : args.tiler == "greedy"  ? pipetile::TilerKind::Greedy : pipetile::TilerKind::ContourTree;
     pipetile::checkMeshOptions(options);
@@ -172,6 +173,7 @@ int runMesh(const MeshArgs& args)
         {"iso", volume.iso()},
         {"axis", axisName(reconstruction.plan().axis)},
         {"tiler", args.tiler},
+        {"every_slice", args.everySlice},
         {"spacing", options.slicing.spacingVoxels},
         {"voxel", volume.smallestVoxel()},
         {"slices", stats.slices},
@@ -203,6 +205,7 @@ int runMesh(const MeshArgs& args)
             {"tiling_seconds", level.tilingSeconds},
             {"tiling_bytes", level.tilingBytes},
             {"contours", level.contours},
+            {"skipped_contours", level.skippedContours},
             {"ambiguous_contours", level.ambiguousContours},
             {"ambiguous_sectors", level.ambiguousSectors},
             {"interpolation_fallbacks", level.interpolationFallbacks},
@@ -316,6 +319,9 @@ int main(int argc, char** argv)
     mesh->add_flag("--validate", meshArgs.validate, "compare every level with volumeToMesh's isosurface");
     mesh->add_option("--tiler", meshArgs.tiler, "tiler: the paper's contour trees, or a toroidal baseline")
         ->check(CLI::IsMember({"contour-tree", "optimal", "greedy"}));
+    mesh->add_flag("--every-slice", meshArgs.everySlice,
+                   "tile every slice at every level, as the paper does (default: coarse levels skip the slices "
+                   "their neighbours predict within the level's own error)");
 
     pipetile::tools::BenchArgs benchArgs;
     CLI::App* bench = app.add_subcommand("bench", "Time pipetile against its baselines and volumeToMesh on one grid");

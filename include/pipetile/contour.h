@@ -147,6 +147,15 @@ struct LoopView {
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center);
 
+/// Where `directions` evenly spaced rays from the view's centre (angles 2*pi*k / directions) meet
+/// the loop's polygon first and last: distances from the centre, pixel units. The loop's shape as
+/// such rays see it, from the polygon alone (no root finding: far cheaper than castRays). Levels
+/// compare neighbouring slices' profiles to find the slices they can skip (multires.h).
+struct RadialProfile {
+    std::vector<double> nearest, farthest; // per direction
+};
+RadialProfile radialProfile(const LoopView& view, int directions);
+
 /// Casts `rays` from `center` against the loop and classifies the edges. The loop's points fix
 /// which crossings exist and their order; each position is then refined to the root of the field
 /// interpolated along the ray, between the neighbouring crossings of the same ray.

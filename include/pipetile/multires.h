@@ -5,6 +5,16 @@
 // casts baseRays * 2^L rays, plus, in a tube whose sections fold, rays from the next levels'
 // angles where a fold hides detail (addFoldRays); every ray of level L is a ray of level L+1, so
 // level L's vertices are a subset of level L+1's, bit for bit.
+//
+// Coarse levels also skip slices. Level L's rays are sagitta(L) = r (1 - cos(pi / n_L)) from a
+// circle of radius r between two rays; a slice whose shape the interpolation of its tube
+// neighbours predicts within that is worth no triangles at that level. So each tube picks its
+// slices by halving: the span between two kept contours keeps its middle one at level L when some
+// contour inside deviates from the neighbours' interpolation by more than sagitta(L), measured
+// on the loops' radial profiles (contour.h) along the finest level's directions. That depends on
+// the loops alone, not the level's rays, and sagitta shrinks as L grows, so the slices of level L
+// are slices of level L+1: levels nest in slices as in rays, and triangles go where the error is
+// (at 8 rays a tube needs few slices; at 64 it needs them all). MeshOptions::everySlice turns it off.
 #pragma once
 
 #include <pipetile/contour.h>
@@ -34,6 +44,9 @@ struct MeshOptions {
                                    // (and counted)
     int threads = 0;               // 0: all cores; results do not depend on it
     TilerKind tiler = TilerKind::ContourTree; // what tiles the bands (caps are the same for all)
+    bool everySlice = false;       // tile every slice at every level, as the paper does; by
+                                   // default a level skips the slices that its kept neighbours
+                                   // predict within its rays' own error (Reconstruction)
 };
 
 /// One level of detail and what it took.
@@ -49,6 +62,8 @@ struct LevelMesh {
     double tilingSeconds = 0.0;    // of which the tiler's: trees and traversal, or the DP / greedy
     std::size_t tilingBytes = 0;   // the tiler's working structures, summed over all bands
     int contours = 0;              // contours tiled
+    int skippedContours = 0;       // contours of the tubes this level skips: their neighbours
+                                   // predict them within the level's own error
     int ambiguousContours = 0;     // contours with more than one F edge in some sector
     long long ambiguousSectors = 0; // sectors with more than one F edge, over all contours
     long long crossings = 0;       // vertices on contours (the rest are end-cap apexes)
@@ -92,14 +107,16 @@ public:
     const ReconstructionStats& stats() const { return mStats; }
     const MeshOptions& options() const { return mOptions; }
 
-    /// Casts the rays of `level` on every contour and tiles all tubes, from scratch. Thread-safe.
+    /// Casts the rays of `level` on the contours it keeps and tiles all tubes, from scratch.
+    /// Thread-safe.
     LevelMesh buildLevel(int level) const;
 
 private:
     friend class Refinement;
     using Contours = std::vector<std::vector<Contour>>; // per plane, per loop
     Contours castLevel(int level) const;
-    Contours refineContours(const Contours& coarse) const;
+    /// `coarse`'s contours refined to `level`; a contour it skipped is cast with its group's rays.
+    Contours refineContours(const Contours& coarse, int level) const;
     /// Rays where folds hide detail (contour.h, hiddenFolds): each ray group (a tube, or the two
     /// walls of a hollow pipe joined by an annulus, which share one band) halves every sector
     /// that a fold of any of its contours flags, and its contours are refined with the new rays,
@@ -109,11 +126,13 @@ private:
     void addFoldRays(Contours& contours) const;
     LevelMesh assemble(const Contours& contours, int level) const;
 
+    static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)
     struct SliceLoop {
         BoundaryLoop loop;
         LoopView view; // from its central point: what every level's rays are cut against
         int group = -1; // its tube's ray group (contours tiled together share their rays); -1:
                         // in no tube
+        int fromLevel = kNever; // the coarsest level that tiles it; every finer level does too
     };
     struct TubeEnd {
         bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
@@ -129,6 +148,8 @@ private:
         TubeEnd bottom, top;
         bool hole = false;
     };
+    /// Sets each tube member's fromLevel (see the top of this header).
+    void chooseSlices();
     /// A hollow pipe's rim: end contours of both walls where the wall ends, past their last slice.
     void addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset);
 
