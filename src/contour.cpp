@@ -637,23 +637,37 @@ RadialProfile radialProfile(const LoopView& view, int directions)
     RadialProfile profile;
     profile.nearest.assign(directions, std::numeric_limits<double>::infinity());
     profile.farthest.assign(directions, -std::numeric_limits<double>::infinity());
+    // Unit directions, computed once per thread and direction count (this runs once per loop).
+    thread_local std::vector<glm::dvec2> table;
+    std::vector<glm::dvec2>& unit = table; // one thread-local lookup, not one per use
+    if (unit.size() != static_cast<std::size_t>(directions)) {
+        unit.resize(directions);
+        for (int k = 0; k < directions; ++k) {
+            const double angle = kTwoPi * static_cast<double>(k) / directions;
+            unit[k] = {std::cos(angle), std::sin(angle)};
+        }
+    }
+    // ceil without a libm call (x86-64's baseline has no rounding instruction).
+    const auto ceiling = [](double x) {
+        const long t = static_cast<long>(x); // toward zero: the ceiling of a negative x
+        return t + (static_cast<double>(t) < x ? 1 : 0);
+    };
     const std::size_t m = view.polygon.size();
     for (std::size_t i = 0; i < m; ++i) {
         // The segment covers the angles from one end's to the other's, the short way round
         // (points are a fraction of a pixel apart, far closer than half a turn); each direction
         // in [lo, hi) meets it once, so a loop winding once gives every direction a crossing.
-        const std::size_t j = (i + 1) % m;
-        const double from = view.turns[i], delta = wrappedDelta(view.turns[j] - from);
-        if (delta == 0.0) continue;
-        const double lo = std::min(from, from + delta), hi = std::max(from, from + delta);
+        const std::size_t j = i + 1 < m ? i + 1 : 0;
+        const double from = view.turns[i] * directions;
+        const double to = from + wrappedDelta(view.turns[j] - view.turns[i]) * directions;
+        const long first = ceiling(std::min(from, to)), end = ceiling(std::max(from, to));
+        if (first == end) continue; // no direction in between: most segments
         const glm::dvec2 p = view.polygon[i] - view.center, e = view.polygon[j] - view.polygon[i];
-        for (long k = static_cast<long>(std::ceil(lo * directions)); k < std::ceil(hi * directions); ++k) {
-            const double angle = kTwoPi * static_cast<double>(k) / directions;
-            const glm::dvec2 u{std::cos(angle), std::sin(angle)};
-            const double denominator = u.x * e.y - u.y * e.x;
+        for (long k = first; k < end; ++k) {
+            const std::size_t d = static_cast<std::size_t>((k % directions + directions) % directions);
+            const double denominator = unit[d].x * e.y - unit[d].y * e.x;
             if (denominator == 0.0) continue;
             const double r = (p.x * e.y - p.y * e.x) / denominator;
-            const std::size_t d = static_cast<std::size_t>((k % directions + directions) % directions);
             profile.nearest[d] = std::min(profile.nearest[d], r);
             profile.farthest[d] = std::max(profile.farthest[d], r);
         }

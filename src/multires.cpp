@@ -22,6 +22,7 @@ namespace pipetile {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+constexpr double kPi = 3.14159265358979323846;
 
 double secondsSince(Clock::time_point start)
 {
@@ -385,55 +386,62 @@ void Reconstruction::chooseSlices()
     if (mOptions.everySlice) return;
     // Profiles along the finest level's directions (at most 256: finer rays see nothing a slice's
     // polygon shows that 256 directions miss), so that what a level skips does not depend on its
-    // own rays.
+    // own rays. Each as in-plane points, centre + r * direction, nearest and farthest crossing per
+    // direction: rays pair crossings of one direction from each slice's own centre, and so do
+    // these.
     const int directions =
         static_cast<int>(std::min(static_cast<long long>(mOptions.baseRays) << (mOptions.levels - 1), 256LL));
-    std::vector<std::vector<RadialProfile>> profiles(mLoops.size());
+    struct Profile {
+        std::vector<glm::dvec2> points; // per direction: nearest, farthest
+        double radius = 0.0;            // the farthest crossing
+    };
+    std::vector<glm::dvec2> unit(directions);
+    for (int d = 0; d < directions; ++d) unit[d] = {std::cos(2.0 * kPi * d / directions), std::sin(2.0 * kPi * d / directions)};
+    std::vector<std::vector<Profile>> profiles(mLoops.size());
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         profiles[s].resize(mLoops[s].size());
-        for (std::size_t l = 0; l < mLoops[s].size(); ++l)
-            if (mLoops[s][l].group >= 0) profiles[s][l] = radialProfile(mLoops[s][l].view, directions);
+        for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
+            const SliceLoop& loop = mLoops[s][l];
+            if (loop.group < 0) continue;
+            const RadialProfile radial = radialProfile(loop.view, directions);
+            Profile& profile = profiles[s][l];
+            profile.points.resize(2 * directions);
+            for (int d = 0; d < directions; ++d) {
+                profile.points[2 * d] = loop.view.center + radial.nearest[d] * unit[d];
+                profile.points[2 * d + 1] = loop.view.center + radial.farthest[d] * unit[d];
+                profile.radius = std::max(profile.radius, radial.farthest[d]);
+            }
+        }
     });
-    std::vector<glm::dvec2> unit(directions);
-    for (int d = 0; d < directions; ++d) {
-        const double angle = 2.0 * 3.14159265358979323846 * d / directions;
-        unit[d] = {std::cos(angle), std::sin(angle)};
-    }
+    // The sagitta of each level's rays on a unit circle, 1 - cos(pi / n).
+    std::vector<double> sagitta(mOptions.levels);
+    for (int level = 0; level < mOptions.levels; ++level)
+        sagitta[level] = 1.0 - std::cos(kPi / static_cast<double>(static_cast<long long>(mOptions.baseRays) << level));
     for (const Tube& tube : mTubes) {
-        const auto profileOf = [&](std::size_t k) -> const RadialProfile& {
+        const auto profileOf = [&](std::size_t k) -> const Profile& {
             return profiles[tube.members[k].first][tube.members[k].second];
         };
-        const auto loopOf = [&](std::size_t k) -> SliceLoop& { return mLoops[tube.members[k].first][tube.members[k].second]; };
         const auto wOf = [&](std::size_t k) { return mPositions[tube.members[k].first]; };
         // The coarsest level at which the span from member a to member b must keep its middle: the
-        // first whose sagitta (on the larger of the two end loops) some member between them
-        // exceeds, where it departs from the straight interpolation of a and b, direction by
-        // direction, in its nearest and its farthest crossing. Rays pair crossings of one
-        // direction from each slice's own centre, and so does this.
+        // first whose sagitta (on the larger of the two end loops) a member between them exceeds,
+        // where it departs from the straight interpolation of a and b.
         const auto splitLevel = [&](std::size_t a, std::size_t b) {
-            const RadialProfile& pa = profileOf(a);
-            const RadialProfile& pb = profileOf(b);
-            const glm::dvec2 ca = loopOf(a).view.center, cb = loopOf(b).view.center;
-            double radius = 0.0, deviation = 0.0;
-            for (int d = 0; d < directions; ++d) radius = std::max({radius, pa.farthest[d], pb.farthest[d]});
+            const Profile& pa = profileOf(a);
+            const Profile& pb = profileOf(b);
+            const double radius = std::max(pa.radius, pb.radius), coarsest = radius * sagitta[0];
+            double worst = 0.0; // squared
             for (std::size_t j = a + 1; j < b; ++j) {
                 const double t = (wOf(j) - wOf(a)) / (wOf(b) - wOf(a));
-                const RadialProfile& pj = profileOf(j);
-                const glm::dvec2 centre = loopOf(j).view.center - (ca + t * (cb - ca));
-                for (int d = 0; d < directions; ++d) {
-                    const double near = pj.nearest[d] - (pa.nearest[d] + t * (pb.nearest[d] - pa.nearest[d]));
-                    const double far = pj.farthest[d] - (pa.farthest[d] + t * (pb.farthest[d] - pa.farthest[d]));
-                    for (const double dr : {near, far}) {
-                        const glm::dvec2 miss = centre + dr * unit[d];
-                        deviation = std::max(deviation, glm::length(miss));
-                    }
+                const std::vector<glm::dvec2>& pj = profileOf(j).points;
+                for (std::size_t i = 0; i < pj.size(); ++i) {
+                    const glm::dvec2 miss = pj[i] - (pa.points[i] + t * (pb.points[i] - pa.points[i]));
+                    worst = std::max(worst, miss.x * miss.x + miss.y * miss.y);
                 }
+                if (!(worst <= coarsest * coarsest)) return 0; // level 0 must split (NaN: a direction
+                                                               // without crossing, too)
             }
-            if (!std::isfinite(deviation)) return 0; // a direction with no crossing: keep all
-            for (int level = 0; level < mOptions.levels; ++level) {
-                const double rays = static_cast<double>(static_cast<long long>(mOptions.baseRays) << level);
-                if (deviation > radius * (1.0 - std::cos(3.14159265358979323846 / rays))) return level;
-            }
+            for (int level = 0; level < mOptions.levels; ++level)
+                if (worst > radius * sagitta[level] * radius * sagitta[level]) return level;
             return kNever;
         };
         // Halving: a span that exists from level `from` keeps its middle member from the level
@@ -443,7 +451,7 @@ void Reconstruction::chooseSlices()
             const int level = std::max(from, splitLevel(a, b));
             if (level == kNever) return;
             const std::size_t middle = (a + b) / 2;
-            loopOf(middle).fromLevel = level;
+            mLoops[tube.members[middle].first][tube.members[middle].second].fromLevel = level;
             self(self, a, middle, level);
             self(self, middle, b, level);
         };
