@@ -85,7 +85,10 @@ struct SlicePlane::Impl {
     double sign;   // +1 level set, -1 fog: turns values into the signed field
     double iso;
     int ua, va;    // grid axes of u and v
-    mutable openvdb::FloatGrid::ConstAccessor accessor;
+    // Unregistered: a registered accessor enters a concurrent hash map in the tree on every
+    // construction and leaves it on destruction (a plane per slice and level). The grid is never
+    // modified while a plane exists, so no cache can go stale.
+    mutable openvdb::FloatGrid::ConstUnsafeAccessor accessor;
     struct Cell {
         bool valid = false;
         int u = 0, v = 0;
@@ -105,7 +108,7 @@ struct SlicePlane::Impl {
     Impl(const Volume& vol, const SlicePlan& p, double wPlane)
         : volume(&vol), plan(&p), w(wPlane), w0(static_cast<int>(std::floor(wPlane))), frac(wPlane - std::floor(wPlane)),
           sign(vol.volumeClass() == VolumeClass::LevelSet ? 1.0 : -1.0), iso(vol.iso()), ua((p.axis + 1) % 3),
-          va((p.axis + 2) % 3), accessor(gridOf(vol).getConstAccessor())
+          va((p.axis + 2) % 3), accessor(gridOf(vol).getConstUnsafeAccessor())
     {}
 
     void readLeaves()
