@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -134,6 +135,21 @@ void checkContour(const Contour& c, const BoundaryLoop& loop, const glm::dvec2& 
     FUZZ_CHECK(first.ray == 0 && first.kind == CrossingKind::InOut);
     for (const Crossing* x : perRay[0])
         if (x->kind == CrossingKind::InOut) FUZZ_CHECK(x->crackT <= first.crackT);
+    // radialProfile cuts the same polygon along the same directions: its nearest and farthest
+    // distance per direction are that ray's nearest and farthest crackT (without added rays, its
+    // directions are the rays).
+    if (!rays.added) {
+        const RadialProfile profile = radialProfile(viewFrom(loop, center), n);
+        for (int ray = 0; ray < n; ++ray) {
+            double nearest = std::numeric_limits<double>::infinity(), farthest = -nearest;
+            for (const Crossing* x : perRay[ray]) {
+                nearest = std::min(nearest, x->crackT);
+                farthest = std::max(farthest, x->crackT);
+            }
+            FUZZ_CHECK(std::abs(profile.nearest[ray] - nearest) <= 1e-9 * std::max(1.0, reach));
+            FUZZ_CHECK(std::abs(profile.farthest[ray] - farthest) <= 1e-9 * std::max(1.0, reach));
+        }
+    }
     for (int ray = 0; ray < n; ++ray) {
         std::vector<const Crossing*>& xs = perRay[ray];
         // One more InOut than OutIn on every ray (the loop winds once around the centre).

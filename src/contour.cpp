@@ -357,6 +357,41 @@ struct CastScratch {
     return scratch;
 }
 
+// The rays that the polygon segment from ray coordinate `from` to `to` (angle in turns * grid, in
+// [0, grid)) crosses, going the short way round. Ray x is crossed where the walk passes from
+// rho < x to rho >= x (forward: InOut) or back (backward: OutIn); a point exactly on a ray counts
+// on the >= side, so no crossing is lost or counted twice. Calls cross(x, along, forward) with x
+// in [0, grid) and `along` increasing along the segment (the crossing's walk order within it).
+template <class Cross>
+void crossedRays(double from, double to, long grid, const Cross& cross)
+{
+    const double scale = static_cast<double>(grid);
+    double delta = to - from;
+    if (delta > 0.5 * scale) delta -= scale;
+    if (delta < -0.5 * scale) delta += scale;
+    if (delta == 0.0) return;
+    const long fa = static_cast<long>(from), fb = static_cast<long>(to); // floor: rho >= 0
+    if (delta > 0.0) {
+        const long last = fb + (to < from ? grid : 0);
+        for (long x = fa + 1; x <= last; ++x) cross(x < grid ? x : x - grid, x, true); // x < 2 * grid
+    } else {
+        const long last = fb + 1 - (to > from ? grid : 0);
+        for (long x = fa; x >= last; --x) cross(x >= 0 ? x : x + grid, -x, false); // x > -grid
+    }
+}
+
+// Distance along the ray from `center` in direction d to where it meets segment ab: solve for the
+// point on the segment and clamp it there, so a ray running along the segment (a near-zero cross
+// product) still meets it on the segment and not somewhere on its line far away.
+double crackDistance(const glm::dvec2& center, const glm::dvec2& d, const glm::dvec2& a, const glm::dvec2& b)
+{
+    const glm::dvec2 e = b - a, ca = center - a;
+    const double denominator = e.x * d.y - e.y * d.x;
+    const double s = denominator != 0.0 ? std::clamp((ca.x * d.y - ca.y * d.x) / denominator, 0.0, 1.0) : 0.5;
+    const glm::dvec2 p = a + s * e - center;
+    return p.x * d.x + p.y * d.y;
+}
+
 // Casts the rays of `rays` against the loop. With `coarse` (the same loop's contour one level
 // down), only the new rays are cast; the coarse crossings are reused as they are and merged in by
 // their walk positions, which gives exactly what casting every ray would (paper §4.3).
@@ -412,43 +447,14 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
     }
     const std::vector<glm::dvec2>& directions = added ? added->directions : uniformDirections;
     auto direction = [&](int ray) { return directions[ray]; };
-    // Distance along the ray to where it meets segment ab: solve for the point on the segment and
-    // clamp it there, so a ray running along the segment (a near-zero cross product) still meets
-    // it on the segment and not somewhere on its line far away.
-    auto crackDistance = [&](int ray, const glm::dvec2& a, const glm::dvec2& b) {
-        const glm::dvec2 d = direction(ray), e = b - a, ca = center - a;
-        const double denominator = e.x * d.y - e.y * d.x;
-        const double s = denominator != 0.0 ? std::clamp((ca.x * d.y - ca.y * d.x) / denominator, 0.0, 1.0) : 0.5;
-        const glm::dvec2 p = a + s * e - center;
-        return p.x * d.x + p.y * d.y;
-    };
-    // Ray x is crossed where the walk passes from rho < x to rho >= x (forward, InOut) or back
-    // (backward, OutIn); a corner exactly on a ray counts on the >= side, so no crossing is lost
-    // or counted twice.
     for (std::size_t i = 0; i < m; ++i) {
         const std::size_t j = i + 1 == m ? 0 : i + 1; // not % m: a division per point and level
-        double delta = rho[j] - rho[i];
-        if (delta > 0.5 * scale) delta -= scale;
-        if (delta < -0.5 * scale) delta += scale;
-        if (delta == 0.0) continue;
-        const long fa = static_cast<long>(rho[i]), fb = static_cast<long>(rho[j]); // floor: rho >= 0
-        if (delta > 0.0) {
-            const long last = fb + (rho[j] < rho[i] ? grid : 0);
-            for (long x = fa + 1; x <= last; ++x) {
-                const long wrapped = x < grid ? x : x - grid; // x < 2 * grid
-                const int ray = rayAt(wrapped);
-                if (ray < 0 || !isNew(wrapped)) continue;
-                hits.push_back({ray, CrossingKind::InOut, crackDistance(ray, poly[i], poly[j]), static_cast<int>(i), x, -1});
-            }
-        } else {
-            const long last = fb + 1 - (rho[j] > rho[i] ? grid : 0);
-            for (long x = fa; x >= last; --x) {
-                const long wrapped = x >= 0 ? x : x + grid; // x > -grid
-                const int ray = rayAt(wrapped);
-                if (ray < 0 || !isNew(wrapped)) continue;
-                hits.push_back({ray, CrossingKind::OutIn, crackDistance(ray, poly[i], poly[j]), static_cast<int>(i), -x, -1});
-            }
-        }
+        crossedRays(rho[i], rho[j], grid, [&](long wrapped, long along, bool forward) {
+            const int ray = rayAt(wrapped);
+            if (ray < 0 || !isNew(wrapped)) return;
+            hits.push_back({ray, forward ? CrossingKind::InOut : CrossingKind::OutIn,
+                            crackDistance(center, direction(ray), poly[i], poly[j]), static_cast<int>(i), along, -1});
+        });
     }
     // Merge the coarse crossings back in walk order: same segment, positions along it scaled to
     // this grid. The new hits are in walk order already, and the coarse contour is its walk order
@@ -637,40 +643,26 @@ RadialProfile radialProfile(const LoopView& view, int directions)
     RadialProfile profile;
     profile.nearest.assign(directions, std::numeric_limits<double>::infinity());
     profile.farthest.assign(directions, -std::numeric_limits<double>::infinity());
-    // Unit directions, computed once per thread and direction count (this runs once per loop).
+    // The crossings castRays would find with `directions` rays, by the same rule and the same
+    // arithmetic (directions, ray coordinates, distances), without the root finding.
     thread_local std::vector<glm::dvec2> table;
     std::vector<glm::dvec2>& unit = table; // one thread-local lookup, not one per use
     if (unit.size() != static_cast<std::size_t>(directions)) {
         unit.resize(directions);
-        for (int k = 0; k < directions; ++k) {
-            const double angle = kTwoPi * static_cast<double>(k) / directions;
-            unit[k] = {std::cos(angle), std::sin(angle)};
+        for (int ray = 0; ray < directions; ++ray) {
+            const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(directions));
+            unit[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
         }
     }
-    // ceil without a libm call (x86-64's baseline has no rounding instruction).
-    const auto ceiling = [](double x) {
-        const long t = static_cast<long>(x); // toward zero: the ceiling of a negative x
-        return t + (static_cast<double>(t) < x ? 1 : 0);
-    };
     const std::size_t m = view.polygon.size();
+    const double scale = static_cast<double>(directions);
     for (std::size_t i = 0; i < m; ++i) {
-        // The segment covers the angles from one end's to the other's, the short way round
-        // (points are a fraction of a pixel apart, far closer than half a turn); each direction
-        // in [lo, hi) meets it once, so a loop winding once gives every direction a crossing.
-        const std::size_t j = i + 1 < m ? i + 1 : 0;
-        const double from = view.turns[i] * directions;
-        const double to = from + wrappedDelta(view.turns[j] - view.turns[i]) * directions;
-        const long first = ceiling(std::min(from, to)), end = ceiling(std::max(from, to));
-        if (first == end) continue; // no direction in between: most segments
-        const glm::dvec2 p = view.polygon[i] - view.center, e = view.polygon[j] - view.polygon[i];
-        for (long k = first; k < end; ++k) {
-            const std::size_t d = static_cast<std::size_t>((k % directions + directions) % directions);
-            const double denominator = unit[d].x * e.y - unit[d].y * e.x;
-            if (denominator == 0.0) continue;
-            const double r = (p.x * e.y - p.y * e.x) / denominator;
-            profile.nearest[d] = std::min(profile.nearest[d], r);
-            profile.farthest[d] = std::max(profile.farthest[d], r);
-        }
+        const std::size_t j = i + 1 == m ? 0 : i + 1;
+        crossedRays(view.turns[i] * scale, view.turns[j] * scale, directions, [&](long ray, long, bool) {
+            const double r = crackDistance(view.center, unit[ray], view.polygon[i], view.polygon[j]);
+            profile.nearest[ray] = std::min(profile.nearest[ray], r);
+            profile.farthest[ray] = std::max(profile.farthest[ray], r);
+        });
     }
     return profile;
 }

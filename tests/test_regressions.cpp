@@ -24,6 +24,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <limits>
 #include <new>
 #include <string>
 #include <vector>
@@ -331,4 +332,48 @@ TEST(Regressions, CentreOnThePolygonGivesNoCrossingBehindIt)
                 }
             }
     EXPECT_GT(checked, 0);
+}
+
+TEST(Regressions, RadialProfileMeetsThePolygonWhereTheRaysDo)
+{
+    // fuzz_contour: the first radial profile (multires' slice choice) took the directions in
+    // [lo, hi) of each segment's angles, castRays takes the rays in (lo, hi]. Where the polygon
+    // turns back exactly on a direction (a point of the polygon on it, both its segments on one
+    // side), the rays count that point twice, as a touching InOut/OutIn pair, and the profile
+    // not at all: its farthest crossing on that direction came out short. The profile now finds
+    // its crossings with castRays' own rule and arithmetic: per direction, the nearest and
+    // farthest crackT of that ray's crossings.
+    const FuzzImage f = readFuzzImage(fuzzInput("contour", "profile_touches_a_direction"));
+    const std::vector<BoundaryLoop> loops = traceBoundaries(f.image);
+    ASSERT_FALSE(loops.empty());
+    int checked = 0, touching = 0;
+    for (const BoundaryLoop& loop : loops) {
+        std::vector<glm::dvec2> centers{centralPoint(loop)};
+        if (f.alsoFromCentroid) centers.push_back(loop.centroid);
+        for (const glm::dvec2& center : centers)
+            for (int level = 0; level < 4; ++level) {
+                const Contour c = castRays(loop, center, RaySet{f.baseRays, level}, f.image);
+                if (c.crossings.empty()) continue;
+                const int n = c.rays.count();
+                const RadialProfile profile = radialProfile(viewFrom(loop, center), n);
+                std::vector<double> nearest(n, std::numeric_limits<double>::infinity());
+                std::vector<double> farthest(n, -std::numeric_limits<double>::infinity());
+                for (const Crossing& x : c.crossings) {
+                    nearest[x.ray] = std::min(nearest[x.ray], x.crackT);
+                    farthest[x.ray] = std::max(farthest[x.ray], x.crackT);
+                }
+                for (std::size_t k = 0; k < c.crossings.size(); ++k) {
+                    const Crossing& a = c.crossings[k];
+                    const Crossing& b = c.crossings[(k + 1) % c.crossings.size()];
+                    touching += a.ray == b.ray && a.kind != b.kind && a.crackT == b.crackT ? 1 : 0;
+                }
+                for (int ray = 0; ray < n; ++ray) {
+                    EXPECT_DOUBLE_EQ(profile.nearest[ray], nearest[ray]) << "level " << level << ", ray " << ray;
+                    EXPECT_DOUBLE_EQ(profile.farthest[ray], farthest[ray]) << "level " << level << ", ray " << ray;
+                    ++checked;
+                }
+            }
+    }
+    EXPECT_GT(checked, 0);
+    EXPECT_GT(touching, 0); // the input holds what this test is about
 }
