@@ -380,6 +380,18 @@ void crossedRays(double from, double to, long grid, const Cross& cross)
     }
 }
 
+// Unit directions of n rays evenly spaced from angle 0, into `table` unless it holds them already
+// (a sincos per ray, not per crossing).
+void evenDirections(std::vector<glm::dvec2>& table, int n)
+{
+    if (static_cast<int>(table.size()) == n) return;
+    table.resize(n);
+    for (int ray = 0; ray < n; ++ray) {
+        const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
+        table[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
+    }
+}
+
 // Distance along the ray from `center` in direction d to where it meets segment ab: solve for the
 // point on the segment and clamp it there, so a ray running along the segment (a near-zero cross
 // product) still meets it on the segment and not somewhere on its line far away.
@@ -438,13 +450,7 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
     // per crossing cost more than the rest of the intersection); added rays carry their own. Both
     // from the same fraction of a turn, so the same angle gives the same bits.
     std::vector<glm::dvec2>& uniformDirections = scratch.uniformDirections;
-    if (!added && static_cast<int>(uniformDirections.size()) != n) {
-        uniformDirections.resize(n);
-        for (int ray = 0; ray < n; ++ray) {
-            const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(n));
-            uniformDirections[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
-        }
-    }
+    if (!added) evenDirections(uniformDirections, n);
     const std::vector<glm::dvec2>& directions = added ? added->directions : uniformDirections;
     auto direction = [&](int ray) { return directions[ray]; };
     for (std::size_t i = 0; i < m; ++i) {
@@ -647,13 +653,7 @@ RadialProfile radialProfile(const LoopView& view, int directions)
     // arithmetic (directions, ray coordinates, distances), without the root finding.
     thread_local std::vector<glm::dvec2> table;
     std::vector<glm::dvec2>& unit = table; // one thread-local lookup, not one per use
-    if (unit.size() != static_cast<std::size_t>(directions)) {
-        unit.resize(directions);
-        for (int ray = 0; ray < directions; ++ray) {
-            const double angle = kTwoPi * (static_cast<double>(ray) / static_cast<double>(directions));
-            unit[ray] = glm::dvec2(std::cos(angle), std::sin(angle));
-        }
-    }
+    evenDirections(unit, directions);
     const std::size_t m = view.polygon.size();
     const double scale = static_cast<double>(directions);
     for (std::size_t i = 0; i < m; ++i) {

@@ -384,9 +384,9 @@ void Reconstruction::chooseSlices()
             mLoops[tube.members[k].first][tube.members[k].second].fromLevel = end || mOptions.everySlice ? 0 : kNever;
         }
     if (mOptions.everySlice) return;
-    // Profiles along the finest level's directions (at most 256: finer rays see nothing a slice's
-    // polygon shows that 256 directions miss), so that what a level skips does not depend on its
-    // own rays. Each as in-plane points, centre + r * direction, nearest and farthest crossing per
+    // Profiles along the finest level's directions (at most 256, to bound the cost: each halving
+    // compares every member of a span in every direction), so that what a level skips does not
+    // depend on its own rays. Each as in-plane points, centre + r * direction, nearest and farthest crossing per
     // direction: rays pair crossings of one direction from each slice's own centre, and so do
     // these.
     const int directions =
@@ -544,7 +544,8 @@ Reconstruction::Contours Reconstruction::castLevel(int level) const
 Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse, int level) const
 {
     // A contour the coarse level skipped is cast from scratch, with the rays its group's refined
-    // contours get (they share them): the same contour as refining it would give.
+    // contours get (they share them): the same contour as refining it would give. Every group has
+    // coarse contours: tube ends are kept at every level.
     std::vector<const RaySet*> groupRays(mTubes.size(), nullptr); // group ids are tube indices
     for (std::size_t s = 0; s < mLoops.size(); ++s)
         for (std::size_t l = 0; l < mLoops[s].size(); ++l)

@@ -164,8 +164,9 @@ private:
 
 /// Stateful: the contours of the current level, refined in place to the next (paper §4.3). Each
 /// refinement casts only the rays between the current ones, inserts their crossings into the
-/// contours, rebuilds the contour trees (linear in the contour) and tiles. Level L's vertices are
-/// level L+1's, bit for bit, and every level equals Reconstruction::buildLevel of it.
+/// contours, rebuilds the contour trees (linear in the contour) and tiles; the slices the level
+/// newly keeps are cast in full. Level L's vertices are level L+1's, bit for bit, and every level
+/// equals Reconstruction::buildLevel of it.
 class Refinement {
 public:
     /// Builds level 0. The reconstruction must outlive this object.
