@@ -148,6 +148,69 @@ std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const
     return rank;
 }
 
+// Replaces the triangle on edge u-v by a fan through `between` (vertices that lie on that edge,
+// in order from u to v), keeping its orientation: every other edge stays in the same triangles.
+void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t v, const std::vector<std::uint32_t>& between)
+{
+    for (std::size_t t = 0; t < triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t a = triangles[t][k], b = triangles[t][(k + 1) % 3], c = triangles[t][(k + 2) % 3];
+            if (!((a == u && b == v) || (a == v && b == u))) continue;
+            std::vector<std::uint32_t> chain{a};
+            if (a == u) chain.insert(chain.end(), between.begin(), between.end());
+            else chain.insert(chain.end(), between.rbegin(), between.rend());
+            chain.push_back(b);
+            triangles[t] = {chain[0], chain[1], c};
+            for (std::size_t i = 1; i + 1 < chain.size(); ++i) triangles.push_back({chain[i], chain[i + 1], c});
+            return;
+        }
+    throw std::logic_error("pipetile internal invariant broken: a contour edge lies in no triangle of its band");
+}
+
+// An acceptable surface between contours of m and n points (ids 0..m-1 and m..m+n-1, in strip
+// order, as tileOptimal returns it) in which one point is joined to every point of the other
+// contour repeats a spanning edge, in four triangles: a valid path on the toroidal graph, but
+// not a manifold. That is the only way a strip repeats an edge (a path revisits a node of the
+// torus only by going once around in one direction alone), so moving the run's last step past
+// the next step of the other contour removes it, and nothing else changes.
+std::vector<Triangle> withoutFullFans(const std::vector<Triangle>& strip, std::uint32_t m, std::uint32_t n)
+{
+    // Steps: true advances A (a triangle with two points of A), false advances B.
+    std::vector<bool> steps;
+    for (const Triangle& t : strip) steps.push_back((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
+    const std::size_t count = steps.size();
+    for (std::size_t start = 0; start < count; ++start) {
+        const bool kind = steps[start];
+        if (steps[(start + count - 1) % count] == kind) continue; // not the start of a run
+        std::size_t length = 0;
+        while (length < count && steps[(start + length) % count] == kind) ++length;
+        if (length < (kind ? m : n)) continue;
+        // A run of m A-steps (n B-steps) fans one point of the other contour over all of this one.
+        steps[(start + length - 1) % count] = !kind;
+        steps[(start + length) % count] = kind;
+    }
+    if (std::equal(steps.begin(), steps.end(), strip.begin(), [&](bool step, const Triangle& t) {
+            return step == ((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
+        }))
+        return strip;
+    // Rebuild from where the first triangle starts: an A-step is {a_i, a_i+1, b_j}, a B-step
+    // {a_i, b_j+1, b_j}.
+    std::uint32_t as[2] = {0, 0}, bs[2] = {0, 0}, na = 0, nb = 0;
+    for (std::uint32_t v : strip.front()) {
+        if (v < m) as[na++] = v;
+        else bs[nb++] = v - m;
+    }
+    std::uint32_t i = as[0], j = bs[0];
+    if (na == 2) i = as[1] == (as[0] + 1) % m ? as[0] : as[1];
+    else j = bs[1] == (bs[0] + 1) % n ? bs[0] : bs[1];
+    std::vector<Triangle> result;
+    for (bool stepA : steps) {
+        if (stepA) { result.push_back({i, (i + 1) % m, m + j}); i = (i + 1) % m; }
+        else { result.push_back({i, m + (j + 1) % n, m + j}); j = (j + 1) % n; }
+    }
+    return result;
+}
+
 } // namespace
 
 void checkMeshOptions(const MeshOptions& options)
@@ -173,24 +236,56 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     const Clock::time_point start = Clock::now();
     checkMeshOptions(options);
     mPlan = planSlices(volume, options.slicing);
+    traceSlices();
+    correspond();
+    resolveEvents();
+    closeEnds();
+    groupRays();
+    chooseSlices();
+    for (const Tube& tube : mTubes)
+        for (const TubeEnd* end : {&tube.bottom, &tube.top}) {
+            if (end->annulus >= 0 || end->junction >= 0) continue;
+            ++mStats.caps;
+            mStats.flatCaps += end->hasApex ? 0 : 1;
+            mStats.clippedCaps += end->fan ? 0 : 1;
+        }
+    mStats.tubes = static_cast<int>(mTubes.size());
+    for (const std::vector<SliceLoop>& loops : mLoops)
+        for (const SliceLoop& l : loops)
+            mStats.longestBoundary = std::max(mStats.longestBoundary, static_cast<long long>(l.loop.corners.size()));
+    // Never exhaust the machine: about 100 bytes per crossing of the finest level (vertex, edge
+    // type, tree node, two triangles) while it is built and written.
+    const double crossings = static_cast<double>(mStats.contours + mStats.endContours) *
+                             static_cast<double>(static_cast<long long>(options.baseRays) << (options.levels - 1));
+    constexpr double kBytesPerCrossing = 100.0, kBudget = 8.0 * 1024 * 1024 * 1024;
+    if (crossings * kBytesPerCrossing > kBudget)
+        throw UsageError("--rays " + std::to_string(options.baseRays) + " with --levels " + std::to_string(options.levels) +
+                         " would need about " + std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
+                         " GiB for the finest level (" + std::to_string(mStats.contours) + " contours); lower --levels");
+    mStats.seconds = secondsSince(start);
+}
+
+std::vector<Reconstruction::SliceLoop> Reconstruction::traceContours(double w, SliceCounts& counts) const
+{
+    const SlicePlane plane(mVolume, mPlan, w);
+    std::vector<SliceLoop> loops;
+    for (BoundaryLoop& loop : traceBoundaries(plane)) {
+        if (std::abs(loop.area) < mOptions.minContourArea) { ++counts.small; continue; }
+        LoopView view = viewFrom(loop, centralPoint(loop));
+        if (view.winding != 1) { ++counts.unwound; continue; }
+        loops.push_back({std::move(loop), std::move(view)});
+    }
+    return loops;
+}
+
+void Reconstruction::traceSlices()
+{
     const std::size_t sliceCount = mPlan.positions.size();
     mStats.slices = static_cast<int>(sliceCount);
-
-    struct SliceCounts { int small = 0, unwound = 0; };
+    mPositions = mPlan.positions;
     std::vector<SliceCounts> counts(sliceCount);
     mLoops.assign(sliceCount, {});
-    forEachIndex(options.threads, sliceCount, [&](std::size_t s) {
-        const SlicePlane plane(mVolume, mPlan, mPlan.positions[s]);
-        for (BoundaryLoop& loop : traceBoundaries(plane)) {
-            if (std::abs(loop.area) < options.minContourArea) { ++counts[s].small; continue; }
-            LoopView view = viewFrom(loop, centralPoint(loop));
-            if (view.winding != 1) {
-                ++counts[s].unwound;
-                continue;
-            }
-            mLoops[s].push_back({std::move(loop), std::move(view)});
-        }
-    });
+    forEachIndex(mOptions.threads, sliceCount, [&](std::size_t s) { mLoops[s] = traceContours(mPositions[s], counts[s]); });
     for (std::size_t s = 0; s < sliceCount; ++s) {
         mStats.droppedSmall += counts[s].small;
         mStats.droppedUnwound += counts[s].unwound;
@@ -201,64 +296,180 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
         }
     }
     if (mStats.contours == 0)
-        throw Error("'" + volume.source() + "', grid '" + volume.gridName() + "': no slice crosses the surface at iso " +
-                    std::to_string(volume.iso()) + " (" + std::to_string(sliceCount) +
+        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() + "': no slice crosses the surface at iso " +
+                    std::to_string(mVolume.iso()) + " (" + std::to_string(sliceCount) +
                     " slices); the object is thinner than the slice spacing: lower --spacing");
+}
 
-    // Correspondence: a contour continues the contour of the previous slice of the same kind
-    // (wall or hole) whose region holds its centre, or holds the other's; the nearest centres
-    // pair first, one to one. A contour with no partner starts a new tube.
-    std::vector<int> tubeOf;
-    for (std::size_t s = 0; s < sliceCount; ++s) {
-        std::vector<int> next(mLoops[s].size(), -1);
-        if (s > 0) {
-            struct Candidate { double distance2; int previous, current; };
-            std::vector<Candidate> candidates;
-            for (int i = 0; i < static_cast<int>(mLoops[s - 1].size()); ++i)
-                for (int j = 0; j < static_cast<int>(mLoops[s].size()); ++j) {
-                    const SliceLoop& a = mLoops[s - 1][i];
-                    const SliceLoop& b = mLoops[s][j];
-                    if (a.loop.hole() != b.loop.hole()) continue;
-                    if (!encloses(a.loop, b.view.center) && !encloses(b.loop, a.view.center)) continue;
-                    const glm::dvec2 d = a.view.center - b.view.center;
-                    candidates.push_back({d.x * d.x + d.y * d.y, i, j});
-                }
-            std::stable_sort(candidates.begin(), candidates.end(),
-                             [](const Candidate& p, const Candidate& q) { return p.distance2 < q.distance2; });
-            std::vector<bool> taken(mLoops[s - 1].size(), false);
-            for (const Candidate& c : candidates) {
-                if (taken[c.previous] || next[c.current] >= 0) continue;
-                taken[c.previous] = true;
-                next[c.current] = tubeOf[c.previous];
-            }
+void Reconstruction::correspond()
+{
+    // A fork's crotch is the chord across its contour's neck, which lies within the slab's
+    // thickness of the saddle (the surface curves away from the chord by less than that), so
+    // event slabs are halved until they are at most half a voxel thick.
+    constexpr double kEventThickness = 0.5;
+    std::vector<PlaneLoops> planes(mLoops.size());
+    auto describe = [&](std::size_t s) {
+        planes[s].w = mPositions[s];
+        for (const SliceLoop& l : mLoops[s]) {
+            planes[s].loops.push_back(&l.loop);
+            planes[s].centers.push_back(l.view.center);
         }
-        for (int j = 0; j < static_cast<int>(mLoops[s].size()); ++j) {
-            if (next[j] < 0) {
-                next[j] = static_cast<int>(mTubes.size());
-                mTubes.push_back({});
-                mTubes.back().hole = mLoops[s][j].loop.hole();
-            }
-            mTubes[next[j]].members.push_back({static_cast<int>(s), j});
-        }
-        tubeOf = std::move(next);
+    };
+    for (std::size_t s = 0; s < planes.size(); ++s) describe(s);
+    SliceCounts dropped;
+    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, [&](double w) {
+        mPositions.push_back(w);
+        mLoops.push_back(traceContours(w, dropped)); // moving the outer vector keeps each loop in place
+        planes.emplace_back();
+        describe(planes.size() - 1);
+        return static_cast<int>(planes.size()) - 1;
+    });
+    mStats.addedPlanes = mGraph.addedPlanes;
+    mStats.droppedSmall += dropped.small;
+    mStats.droppedUnwound += dropped.unwound;
+    for (std::size_t s = mPlan.positions.size(); s < mLoops.size(); ++s) {
+        mStats.contours += static_cast<int>(mLoops[s].size());
+        for (const SliceLoop& l : mLoops[s]) mStats.holes += l.loop.hole() ? 1 : 0;
     }
-    // Tube ends. Tubes were created in slice order, and their members are in slice order too.
-    // Where the axis through the end contour's central point leaves the object, an end contour
-    // a quarter voxel inside that point is added, so caps sit within a quarter voxel of flat ends
-    // and follow rounded ones; the apex is then sought again from it. (Closer in, the field's
-    // rounding at the rim of a flat end shrinks the end contour: the bean's top level is 0.75
-    // voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.)
-    mPositions = mPlan.positions;
-    const double reach = options.slicing.spacingVoxels + 2.0;
+}
+
+void Reconstruction::resolveEvents()
+{
+    // Tubes grow along bands; every other piece ends the tubes of its lower contours and starts
+    // tubes for its upper ones. A fork or merge that splits into arcs joins them by a junction.
+    std::vector<std::vector<int>> tubeOf(mLoops.size());
+    for (std::size_t s = 0; s < mLoops.size(); ++s) tubeOf[s].assign(mLoops[s].size(), -1);
+    auto startTube = [&](int s, int l) {
+        tubeOf[s][l] = static_cast<int>(mTubes.size());
+        mTubes.emplace_back();
+        mTubes.back().hole = mLoops[s][l].loop.hole();
+        mTubes.back().members.push_back({s, l});
+        return tubeOf[s][l];
+    };
+    if (mGraph.order.empty()) return;
+    const int first = mGraph.order.front(), last = mGraph.order.back();
+    for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
+    mStats.starts += static_cast<int>(mLoops[first].size());
+    mStats.eventEuler += static_cast<long long>(mLoops[first].size());
+    for (const ContourGraph::Slab& slab : mGraph.slabs) {
+        for (const SlabPiece& piece : slab.pieces) {
+            mStats.eventEuler += piece.euler();
+            if (piece.kind == EventKind::Band) {
+                const int t = tubeOf[slab.below][piece.below[0]];
+                mTubes[t].members.push_back({slab.above, piece.above[0]});
+                tubeOf[slab.above][piece.above[0]] = t;
+                continue;
+            }
+            if (piece.kind == EventKind::Fork || piece.kind == EventKind::Merge) {
+                const bool fork = piece.kind == EventKind::Fork;
+                Junction junction;
+                junction.kind = piece.kind;
+                junction.single = fork ? std::pair<int, int>{slab.below, piece.below[0]} : std::pair<int, int>{slab.above, piece.above[0]};
+                for (int l : fork ? piece.above : piece.below) junction.many.push_back({fork ? slab.above : slab.below, l});
+                if (splitJunction(junction)) {
+                    const int id = static_cast<int>(mJunctions.size());
+                    for (const auto& [s, l] : fork ? std::vector<std::pair<int, int>>{junction.single} : junction.many)
+                        mTubes[tubeOf[s][l]].top.junction = id;
+                    for (const auto& [s, l] : fork ? junction.many : std::vector<std::pair<int, int>>{junction.single})
+                        mTubes[startTube(s, l)].bottom.junction = id;
+                    ++(fork ? mStats.forks : mStats.merges);
+                    mStats.saddles += static_cast<int>(junction.many.size()) - 1;
+                    mJunctions.push_back(std::move(junction));
+                    continue;
+                }
+                ++mStats.unresolvedJunctions;
+            }
+            for (int l : piece.above) startTube(slab.above, l);
+            mStats.starts += piece.kind == EventKind::Start ? 1 : 0;
+            mStats.ends += piece.kind == EventKind::End ? 1 : 0;
+            mStats.rims += piece.kind == EventKind::Rim ? 1 : 0;
+            mStats.unresolvedEvents += piece.kind == EventKind::Unresolved ? 1 : 0;
+        }
+    }
+    mStats.ends += static_cast<int>(mLoops[last].size());
+    mStats.eventEuler += static_cast<long long>(mLoops[last].size());
+}
+
+bool Reconstruction::splitJunction(Junction& junction) const
+{
+    // Each point of the single contour's polygon goes to the partner whose polygon passes nearest
+    // (both planes share (u, v)); near the saddle the partners are the single contour's lobes, so
+    // the owners form one arc each, and the arcs meet at the neck.
+    const std::vector<glm::dvec2>& polygon = mLoops[junction.single.first][junction.single.second].view.polygon;
+    const int m = static_cast<int>(polygon.size()), n = static_cast<int>(junction.many.size());
+    std::vector<int> owner(m, 0);
+    for (int i = 0; i < m; ++i) {
+        double best = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < n; ++k)
+            for (const glm::dvec2& q : mLoops[junction.many[k].first][junction.many[k].second].view.polygon) {
+                const glm::dvec2 d = q - polygon[i];
+                const double distance2 = d.x * d.x + d.y * d.y;
+                if (distance2 < best) { best = distance2; owner[i] = k; }
+            }
+    }
+    // Runs of one owner, cyclically; the shortest run is given to its neighbours until every
+    // partner owns one run (a few points owned by a third partner across a narrow gap, say).
+    struct Run { int start, length, owner; };
+    std::vector<Run> runs;
+    int begin = 0;
+    while (begin < m && owner[begin] == owner[(begin + m - 1) % m]) ++begin;
+    if (begin == m) return false; // one partner owns everything: the others have no arc
+    for (int i = 0; i < m; ++i) {
+        const int p = (begin + i) % m;
+        if (runs.empty() || runs.back().owner != owner[p]) runs.push_back({p, 0, owner[p]});
+        ++runs.back().length;
+    }
+    while (static_cast<int>(runs.size()) > n) {
+        std::size_t shortest = 0;
+        for (std::size_t r = 1; r < runs.size(); ++r)
+            if (runs[r].length < runs[shortest].length) shortest = r;
+        const std::size_t previous = (shortest + runs.size() - 1) % runs.size(), next = (shortest + 1) % runs.size();
+        runs[previous].length += runs[shortest].length;
+        if (runs[next].owner == runs[previous].owner && next != previous) {
+            runs[previous].length += runs[next].length;
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::max(shortest, next)));
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::min(shortest, next)));
+        } else {
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(shortest));
+        }
+    }
+    std::vector<bool> owned(n, false);
+    for (const Run& r : runs) owned[r.owner] = true;
+    if (static_cast<int>(runs.size()) != n || std::count(owned.begin(), owned.end(), true) != n) return false;
+    std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.start < b.start; });
+    junction.hub = glm::dvec2(0.0);
+    for (const Run& r : runs) {
+        junction.cuts.push_back(r.start);
+        junction.arcOwner.push_back(r.owner);
+        junction.hub += polygon[r.start] / static_cast<double>(n);
+    }
+    // The hub lies inside, just short of the saddle: toward the partners' plane the field turns
+    // outside at the crotch itself, so the hub moves there (and stays put if it does not).
+    const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
+    const SlicePlane plane(mVolume, mPlan, w);
+    junction.hubW = w;
+    findApex(plane, junction.hub, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), junction.hubW);
+    return true;
+}
+
+void Reconstruction::closeEnds()
+{
+    // Tube ends that no junction joins. Where the axis through the end contour's central point
+    // leaves the object, an end contour a quarter voxel inside that point is added, so caps sit
+    // within a quarter voxel of flat ends and follow rounded ones; the apex is then sought again
+    // from it. (Closer in, the field's rounding at the rim of a flat end shrinks the end contour:
+    // the bean's top level is 0.75 voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.)
+    const double reach = mOptions.slicing.spacingVoxels + 2.0;
     constexpr double kEndInset = 0.25;
     for (Tube& tube : mTubes) {
         for (const bool top : {false, true}) {
+            TubeEnd& end = top ? tube.top : tube.bottom;
+            if (end.junction >= 0) continue;
             const double direction = top ? 1.0 : -1.0;
             const auto [s, l] = top ? tube.members.back() : tube.members.front();
             const SliceLoop& member = mLoops[s][l];
             const SlicePlane plane(mVolume, mPlan, mPositions[s]);
             double wApex = plane.w();
-            TubeEnd& end = top ? tube.top : tube.bottom;
             end.hasApex = !tube.hole && findApex(plane, member.view.center, direction, reach, wApex);
             end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
             const double wEnd = wApex - direction * kEndInset;
@@ -269,7 +480,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
                 static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
                 [&](int k) {
                     const BoundaryLoop& candidate = loops[k];
-                    return !candidate.hole() && std::abs(candidate.area) >= options.minContourArea &&
+                    return !candidate.hole() && std::abs(candidate.area) >= mOptions.minContourArea &&
                            (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid));
                 });
             if (best < 0) continue;
@@ -291,7 +502,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     // One cap style for every level, so that levels nest: an apex fan where the end contour is
     // star-shaped with the finest rays (a ray crossing it more than once would at every finer
     // level too), ear clipping otherwise.
-    const RaySet finest{options.baseRays, options.levels - 1};
+    const RaySet finest{mOptions.baseRays, mOptions.levels - 1};
     for (Tube& tube : mTubes) {
         for (const bool top : {false, true}) {
             TubeEnd& end = top ? tube.top : tube.bottom;
@@ -304,11 +515,13 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     }
     // A lone contour closed flat on both sides would get the same triangles twice: it encloses
     // nothing, so it is dropped (and counted) rather than meshed as a flat pillow.
-    const auto pillow = [](const Tube& t) { return t.members.size() == 1 && !t.bottom.fan && !t.top.fan; };
+    const auto pillow = [](const Tube& t) {
+        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && t.bottom.junction < 0 && t.top.junction < 0;
+    };
     mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
     mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
     if (mTubes.empty())
-        throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
+        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
                     "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
     // Hollow pipes: where a hole tube ends in the same plane as the outer tube around it, the two
     // end contours are joined by an annulus, the pipe's rim, instead of closing each wall by a
@@ -316,6 +529,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     for (int h = 0; h < static_cast<int>(mTubes.size()); ++h) {
         if (!mTubes[h].hole) continue;
         for (const bool top : {false, true}) {
+            if ((top ? mTubes[h].top : mTubes[h].bottom).junction >= 0) continue;
             const std::pair<int, int> holeEnd = top ? mTubes[h].members.back() : mTubes[h].members.front();
             const int hs = holeEnd.first, hl = holeEnd.second; // named, not bound: lambdas below use them
             const glm::dvec2 holeCenter = mLoops[hs][hl].view.center;
@@ -329,7 +543,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
                     const Tube& outer = mTubes[o];
                     const TubeEnd& end = top ? outer.top : outer.bottom;
                     const int os = (top ? outer.members.back() : outer.members.front()).first;
-                    return !outer.hole && !end.hasApex && end.annulus < 0 && os == hs &&
+                    return !outer.hole && !end.hasApex && end.annulus < 0 && end.junction < 0 && os == hs &&
                            encloses(endLoop(o).loop, holeCenter);
                 });
             if (best < 0) continue;
@@ -339,8 +553,12 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             addRimContours(mTubes[best], mTubes[h], top, reach, kEndInset);
         }
     }
+}
+
+void Reconstruction::groupRays()
+{
     // Ray groups: a tube, joined with the tubes an annulus ties it to (their end contours are
-    // tiled together, so they must share their rays).
+    // tiled together, so they must share their rays). Junctions tile by geometry and need none.
     std::vector<int> group(mTubes.size());
     for (std::size_t t = 0; t < mTubes.size(); ++t) group[t] = static_cast<int>(t);
     auto root = [&](int t) {
@@ -352,28 +570,6 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
             if (end->annulus >= 0) group[root(end->annulus)] = root(static_cast<int>(t));
     for (std::size_t t = 0; t < mTubes.size(); ++t)
         for (const auto& [s, l] : mTubes[t].members) mLoops[s][l].group = root(static_cast<int>(t));
-    chooseSlices();
-    for (const Tube& tube : mTubes)
-        for (const TubeEnd* end : {&tube.bottom, &tube.top}) {
-            if (end->annulus >= 0) continue;
-            mStats.flatCaps += end->hasApex ? 0 : 1;
-            mStats.clippedCaps += end->fan ? 0 : 1;
-        }
-    mStats.slices = static_cast<int>(mPlan.positions.size());
-    mStats.tubes = static_cast<int>(mTubes.size());
-    for (const std::vector<SliceLoop>& loops : mLoops)
-        for (const SliceLoop& l : loops)
-            mStats.longestBoundary = std::max(mStats.longestBoundary, static_cast<long long>(l.loop.corners.size()));
-    // Never exhaust the machine: about 100 bytes per crossing of the finest level (vertex, edge
-    // type, tree node, two triangles) while it is built and written.
-    const double crossings = static_cast<double>(mStats.contours + mStats.endContours) *
-                             static_cast<double>(static_cast<long long>(options.baseRays) << (options.levels - 1));
-    constexpr double kBytesPerCrossing = 100.0, kBudget = 8.0 * 1024 * 1024 * 1024;
-    if (crossings * kBytesPerCrossing > kBudget)
-        throw UsageError("--rays " + std::to_string(options.baseRays) + " with --levels " + std::to_string(options.levels) +
-                         " would need about " + std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
-                         " GiB for the finest level (" + std::to_string(mStats.contours) + " contours); lower --levels");
-    mStats.seconds = secondsSince(start);
 }
 
 void Reconstruction::chooseSlices()
@@ -507,6 +703,39 @@ void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double re
     mStats.endContours += 2;
 }
 
+Skeleton Reconstruction::skeleton() const
+{
+    Skeleton skeleton;
+    std::vector<std::vector<int>> segmentOf(mLoops.size());
+    for (std::size_t s = 0; s < mLoops.size(); ++s) segmentOf[s].assign(mLoops[s].size(), -1);
+    for (const Tube& tube : mTubes) {
+        Skeleton::Segment segment;
+        segment.hole = tube.hole;
+        segment.wFirst = mPositions[tube.members.front().first];
+        segment.wLast = mPositions[tube.members.back().first];
+        segment.contours = static_cast<int>(tube.members.size());
+        auto name = [](const TubeEnd& end) {
+            return end.junction >= 0 ? "junction" : end.annulus >= 0 ? "rim" : end.hasApex ? "cap" : "flat cap";
+        };
+        segment.bottom = name(tube.bottom);
+        segment.top = name(tube.top);
+        segment.bottomJunction = tube.bottom.junction;
+        segment.topJunction = tube.top.junction;
+        for (const auto& [s, l] : tube.members) segmentOf[s][l] = static_cast<int>(skeleton.segments.size());
+        skeleton.segments.push_back(segment);
+    }
+    for (const Junction& junction : mJunctions) {
+        Skeleton::Junction j;
+        j.kind = junction.kind;
+        j.w = mPositions[junction.single.first];
+        j.crotchW = junction.hubW;
+        j.single = segmentOf[junction.single.first][junction.single.second];
+        for (const auto& [s, l] : junction.many) j.partners.push_back(segmentOf[s][l]);
+        skeleton.junctions.push_back(j);
+    }
+    return skeleton;
+}
+
 int Reconstruction::finestUsefulLevel() const
 {
     for (int level = 0; level < mOptions.levels; ++level)
@@ -634,12 +863,14 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const Tube* tube;
         bool startsTube, endsTube; // the tube's first and last contour (at every level: ends are kept)
         const Contour* contour;
-        int slice;
+        int slice, loop;
         std::uint32_t first;  // index of its first vertex
         std::uint32_t apex[2]; // bottom, top cap apex (members that end a tube with a fan)
     };
     std::vector<Member> members;
     std::vector<std::size_t> tubeFirst(mTubes.size()); // index in `members` of each tube's first
+    std::vector<std::vector<int>> memberOf(mLoops.size()); // per plane and loop; -1: not tiled
+    for (std::size_t s = 0; s < mLoops.size(); ++s) memberOf[s].assign(mLoops[s].size(), -1);
     std::uint32_t vertexCount = 0;
     for (const Tube& tube : mTubes) {
         tubeFirst[&tube - mTubes.data()] = members.size();
@@ -660,23 +891,89 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             result.ambiguousContours += isUnambiguous(c) ? 0 : 1;
             result.interpolationFallbacks += c.interpolationFallbacks;
             result.crossings += static_cast<long long>(c.crossings.size());
-            Member member{&tube, startsTube, endsTube, &c, s, vertexCount, {0, 0}};
+            Member member{&tube, startsTube, endsTube, &c, s, l, vertexCount, {0, 0}};
+            memberOf[s][l] = static_cast<int>(members.size());
             vertexCount += static_cast<std::uint32_t>(c.crossings.size());
             if (startsTube && tube.bottom.fan) member.apex[0] = vertexCount++;
             if (endsTube && tube.top.fan) member.apex[1] = vertexCount++;
             members.push_back(member);
         }
     }
+    // Junction vertices, the same at every level: the cut points on the single contour's
+    // polygon, then the hub where the chords from the cuts meet, inside the contour.
+    struct Extra { int point; std::uint32_t id; };
+    std::vector<std::vector<Extra>> extras(members.size()); // per member
+    std::vector<std::uint32_t> hubOf(mJunctions.size()); // the junction's cut vertices precede it
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) {
+        const Junction& junction = mJunctions[j];
+        const int single = memberOf[junction.single.first][junction.single.second];
+        for (int cut : junction.cuts) extras[single].push_back({cut, vertexCount++});
+        hubOf[j] = vertexCount++;
+    }
     mesh.vertices.resize(vertexCount);
+    auto toWorld = [&](const glm::dvec2& uv, int plane) {
+        return mVolume.indexToWorld(planeToIndex(mPlan.axis, uv, mPositions[plane]));
+    };
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
         for (std::size_t j = 0; j < m.contour->crossings.size(); ++j)
-            mesh.vertices[m.first + j] =
-                mVolume.indexToWorld(planeToIndex(mPlan.axis, m.contour->crossings[j].point, mPositions[m.slice]));
+            mesh.vertices[m.first + j] = toWorld(m.contour->crossings[j].point, m.slice);
         if (m.startsTube && m.tube->bottom.fan) mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
         if (m.endsTube && m.tube->top.fan)
             mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
+        for (const Extra& e : extras[i]) mesh.vertices[e.id] = toWorld(mLoops[m.slice][m.loop].view.polygon[e.point], m.slice);
     });
+    for (std::size_t j = 0; j < mJunctions.size(); ++j)
+        mesh.vertices[hubOf[j]] = mVolume.indexToWorld(planeToIndex(mPlan.axis, mJunctions[j].hub, mJunctions[j].hubW));
+
+    // A contour's ring: its crossings in walk order with its junction vertices merged in by their
+    // polygon point (integers: segment indices); after[k] lists those between crossings k and k+1.
+    struct Ring {
+        std::vector<std::uint32_t> ids;
+        std::vector<glm::dvec2> points; // in-plane, pixel units
+        std::vector<std::vector<std::uint32_t>> after;
+    };
+    auto ringOf = [&](std::size_t i) {
+        const Member& m = members[i];
+        const std::vector<Crossing>& x = m.contour->crossings;
+        const std::vector<glm::dvec2>& polygon = mLoops[m.slice][m.loop].view.polygon;
+        Ring ring;
+        ring.after.resize(x.size());
+        // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
+        // segment, or a cut at its segment's start, comes last.
+        const long long segments = static_cast<long long>(polygon.size());
+        auto key = [&](long long segment) { return (segment - x[0].segment + segments) % segments; };
+        std::vector<long long> crossingKey(x.size());
+        for (std::size_t k = 0; k < x.size(); ++k)
+            crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
+        std::vector<std::pair<long long, const Extra*>> cuts;
+        for (const Extra& e : extras[i]) cuts.push_back({key(e.point) == 0 ? segments : key(e.point), &e});
+        std::sort(cuts.begin(), cuts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (const auto& [k, e] : cuts) {
+            const std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), k) - crossingKey.begin();
+            ring.after[before - 1].push_back(e->id);
+        }
+        for (std::size_t k = 0; k < x.size(); ++k) {
+            ring.ids.push_back(m.first + static_cast<std::uint32_t>(k));
+            ring.points.push_back(x[k].point);
+            for (std::uint32_t id : ring.after[k]) {
+                ring.ids.push_back(id);
+                for (const Extra& e : extras[i])
+                    if (e.id == id) ring.points.push_back(polygon[e.point]);
+            }
+        }
+        return ring;
+    };
+    // Junction vertices lie on contour edges that the bands and caps tile as single edges: the
+    // triangle on each such edge becomes a fan through them.
+    auto splitForExtras = [&](std::vector<Triangle>& triangles, std::size_t i) {
+        if (extras[i].empty()) return;
+        const Ring ring = ringOf(i);
+        const std::uint32_t count = static_cast<std::uint32_t>(members[i].contour->crossings.size());
+        for (std::uint32_t k = 0; k < count; ++k)
+            if (!ring.after[k].empty())
+                splitEdge(triangles, members[i].first + k, members[i].first + (k + 1) % count, ring.after[k]);
+    };
 
     // Contour trees, one per contour; where a sector is ambiguous, each band ranks its two
     // contours against each other (rule [1'], below), so the trees may differ from band to band.
@@ -740,6 +1037,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             for (std::uint32_t& v : t) v = v < previousCount ? previous.first + v : m.first + (v - previousCount);
             if (flip) std::swap(t[1], t[2]);
         }
+        splitForExtras(band, i - 1);
+        splitForExtras(band, i);
     });
     result.tilingSeconds = secondsSince(tiling);
     for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
@@ -748,36 +1047,40 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     // closed flat by ear clipping, which follows C-shaped and folded sections.
     // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
     // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
-    // inward, so it faces +w, outward at the top. The hole's own end gets nothing.
+    // inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
+    // junction gets nothing either: the junction's triangles close it.
     auto treeOf = [&](std::size_t i) {
         return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour));
     };
     auto emitCap = [&](std::size_t self, bool top) {
         const Member& m = members[self];
         const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
-        if (m.tube->hole && end.annulus >= 0) return;
-        const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
+        if (end.junction >= 0 || (m.tube->hole && end.annulus >= 0)) return;
         if (end.annulus >= 0) {
+            const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
             std::size_t hole = tubeFirst[end.annulus];
             if (top)
                 while (!members[hole].endsTube) ++hole;
-            for (Triangle t : tileBand(treeOf(self), treeOf(hole))) {
+            std::vector<Triangle> annulus = tileBand(treeOf(self), treeOf(hole));
+            for (Triangle& t : annulus) {
                 for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
                 if (top == mirrored) std::swap(t[1], t[2]);
-                mesh.triangles.push_back(t);
             }
+            splitForExtras(annulus, self);
+            splitForExtras(annulus, hole);
+            mesh.triangles.insert(mesh.triangles.end(), annulus.begin(), annulus.end());
             return;
         }
-        auto index = [&](std::uint32_t v) { return v < count ? m.first + v : m.apex[top ? 1 : 0]; };
+        const Ring ring = ringOf(self);
+        const std::uint32_t count = static_cast<std::uint32_t>(ring.ids.size());
+        auto index = [&](std::uint32_t v) { return v < count ? ring.ids[v] : m.apex[top ? 1 : 0]; };
         // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
         bool flip = m.tube->hole != mirrored;
         std::vector<Triangle> cap;
         if (end.fan) {
             cap = tileCap(count, top);
         } else {
-            std::vector<glm::dvec2> polygon;
-            for (const Crossing& x : m.contour->crossings) polygon.push_back(x.point);
-            cap = earClip(polygon);
+            cap = earClip(ring.points);
             flip = flip != !top;
         }
         for (Triangle t : cap) {
@@ -794,6 +1097,45 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         if (members[i].startsTube) emitCap(i, false);
         mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
         if (members[i].endsTube) emitCap(i, true);
+    }
+    // Junctions: arc a of the single contour, from its cut a to cut a + 1 and through the hub,
+    // is tiled to its partner's ring by the minimum-area acceptable surface. Arcs share the
+    // chords to the hub, each once in either direction, so the pieces join into one manifold
+    // with n - 1 saddles.
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) {
+        const Junction& junction = mJunctions[j];
+        const int single = memberOf[junction.single.first][junction.single.second];
+        const Ring ring = ringOf(single);
+        const bool fork = junction.kind == EventKind::Fork;
+        const bool flip = mLoops[junction.single.first][junction.single.second].loop.hole() != mirrored;
+        const std::size_t n = junction.cuts.size(), size = ring.ids.size();
+        auto positionOf = [&](std::size_t cut) { // of this junction's cut vertex in the ring
+            const std::uint32_t id = hubOf[j] - static_cast<std::uint32_t>(n - cut);
+            return static_cast<std::size_t>(std::find(ring.ids.begin(), ring.ids.end(), id) - ring.ids.begin());
+        };
+        for (std::size_t a = 0; a < n; ++a) {
+            std::vector<std::uint32_t> part;
+            const std::size_t from = positionOf(a), to = positionOf((a + 1) % n);
+            for (std::size_t p = from;; p = (p + 1) % size) {
+                part.push_back(ring.ids[p]);
+                if (p == to) break;
+            }
+            part.push_back(hubOf[j]);
+
+            const auto [ps, pl] = junction.many[junction.arcOwner[a]];
+            const std::vector<std::uint32_t> partner = ringOf(memberOf[ps][pl]).ids;
+            const std::vector<std::uint32_t>& lower = fork ? part : partner;
+            const std::vector<std::uint32_t>& upper = fork ? partner : part;
+            std::vector<glm::dvec3> lowerPoints, upperPoints;
+            for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
+            for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
+            for (Triangle t : withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+                                              static_cast<std::uint32_t>(upper.size()))) {
+                for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
+                if (flip) std::swap(t[1], t[2]);
+                mesh.triangles.push_back(t);
+            }
+        }
     }
     return result;
 }

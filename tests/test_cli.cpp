@@ -23,13 +23,17 @@ nlohmann::json readJson(const std::string& path)
     return nlohmann::json::parse(in);
 }
 
-// Runs `pipetile mesh` and checks every level: written, closed, manifold, oriented, Euler 2 per
-// tube, and exactly 2 triangles per contour vertex. A tube of contours with m_k crossings has
-// sum(m_k) + 2 vertices (two cap apexes) and 2 * sum(m_k) triangles: bands give m_k + m_k+1,
-// caps m_first and m_last. At level >= 2 every vertex lies within 0.25 voxel of the level set's
-// zero. Returns the report.
-nlohmann::json meshAndCheck(const TempDir& dir, const std::string& input, const std::string& extra, int expectedTubes)
+// Runs `pipetile mesh` and checks every level: written, closed, manifold, oriented, with the
+// expected Euler characteristic (2 per tube when no junction joins tubes) and exactly
+// 2 (V - euler) triangles, as every closed triangle mesh has (2E = 3F): a tube of contours with
+// m_k crossings has sum(m_k) + 2 vertices (two cap apexes) and 2 * sum(m_k) triangles, bands
+// giving m_k + m_k+1 and caps m_first and m_last. The report's own Euler characteristic per
+// level, and that of the events, must agree. At level >= 2 every vertex lies within 0.25 voxel
+// of the level set's zero. Returns the report.
+nlohmann::json meshAndCheck(const TempDir& dir, const std::string& input, const std::string& extra, int expectedTubes,
+                            int expectedEuler = -1000)
 {
+    if (expectedEuler == -1000) expectedEuler = 2 * expectedTubes;
     const std::string out = dir.path("mesh.ply"), report = dir.path("report.json");
     const test::CliResult r = runCli("mesh " + input + " -o '" + out + "' --report '" + report + "' " + extra);
     EXPECT_EQ(r.exitCode, 0) << r.err;
@@ -46,17 +50,19 @@ nlohmann::json meshAndCheck(const TempDir& dir, const std::string& input, const 
         const TriangleMesh mesh = readMesh(level["file"].get<std::string>());
         EXPECT_EQ(mesh.vertices.size(), level["vertices"].get<std::size_t>());
         EXPECT_EQ(mesh.triangles.size(), level["triangles"].get<std::size_t>());
-        EXPECT_EQ(mesh.triangles.size(), 2 * (mesh.vertices.size() - 2 * expectedTubes));
+        EXPECT_EQ(static_cast<long long>(mesh.triangles.size()), 2 * (static_cast<long long>(mesh.vertices.size()) - expectedEuler));
         const Topology topo = checkTopology(mesh);
         EXPECT_TRUE(topo.closed() && topo.manifold() && topo.oriented() && topo.outward())
             << topo.boundaryEdges << " boundary, " << topo.nonManifoldEdges << " non-manifold, "
             << topo.misorientedEdges << " misoriented, volume " << topo.signedVolume;
-        EXPECT_EQ(topo.euler, 2 * expectedTubes);
+        EXPECT_EQ(topo.euler, expectedEuler);
+        EXPECT_EQ(level["euler"].get<long long>(), expectedEuler);
         if (k >= 2) {
             // Files hold floats: allow their rounding (1e-7 relative of coordinates ~ 500) too.
             EXPECT_LE(levelSetDistanceAtVertices(volume, mesh).max, 0.25 * volume.smallestVoxel() + 1e-4);
         }
     }
+    EXPECT_EQ(j["events"]["built_euler"].get<long long>(), expectedEuler);
     return j;
 }
 
@@ -118,14 +124,21 @@ TEST(Cli, MeshesTheBundledPhantomByDefault)
 TEST(Cli, MeshesTheRealAortaAlongY)
 {
     // The aorta runs along y, with anisotropic voxels (0.879 x 0.879 x 1.5 mm). Near y = 119 it
-    // bifurcates into the iliac arteries (two cross-sections per slice below, one above). Until
-    // branching is tiled, the second iliac is a tube of its own, closed flat where it meets the
-    // trunk: two closed components, Euler characteristic 2 each.
+    // bifurcates into the iliac arteries (two cross-sections per slice below, one above): the
+    // two iliacs' tubes merge into the trunk's at one junction, so the mesh is one closed surface
+    // of genus 0 (Euler characteristic 2, as volumeToMesh's isosurface: Validate tests that)
+    // made of three tubes.
     TempDir dir;
-    const nlohmann::json j = meshAndCheck(dir, test::realData("vmtk_aorta_ls.vdb"), "", 2);
+    const nlohmann::json j = meshAndCheck(dir, test::realData("vmtk_aorta_ls.vdb"), "", 3, 2);
     EXPECT_EQ(j["axis"].get<std::string>(), "y");
-    // Only the iliac that ends inside the trunk finds no apex beyond its last slice.
-    EXPECT_EQ(j["statistics"]["flat_caps"].get<int>(), 1);
+    EXPECT_EQ(j["events"]["merges"].get<int>(), 1);
+    EXPECT_EQ(j["events"]["saddles"].get<int>(), 1);
+    EXPECT_EQ(j["events"]["euler"].get<long long>(), 2);
+    ASSERT_EQ(j["graph"]["junctions"].size(), 1u);
+    EXPECT_EQ(j["graph"]["junctions"][0]["partners"].size(), 2u);
+    // The three tubes end in caps found beyond their last slices (none flat).
+    EXPECT_EQ(j["statistics"]["caps"].get<int>(), 3);
+    EXPECT_EQ(j["statistics"]["flat_caps"].get<int>(), 0);
 }
 
 TEST(Cli, MeshesTheThinRealCarotid)
@@ -386,11 +399,11 @@ TEST(Cli, BenchReportsTableOneRefinementAndPeers)
 
 TEST(Cli, MeshesTheRealSmokeAsManyClosedPieces)
 {
-    // Not a pipe at all: a fog of many blobs. Every piece is its own closed tube, so each level is
-    // closed, manifold and oriented, with one component and Euler characteristic 2 per tube;
-    // except that where a hole ends in the same plane as the wall around it, an annulus joins
-    // the two tubes into one component and replaces their two caps (Euler characteristic 1 each)
-    // by one of 0: 2 less per annulus.
+    // Not a pipe at all: a fog of many blobs. Each level is closed, manifold and oriented, and
+    // built of pieces whose Euler characteristics add up: a band 0, a cap 1, a rim's annulus 0,
+    // a junction of one contour with n others 1 - n (n - 1 saddles): caps - saddles. Without
+    // junctions every tube is a component of its own (2 per tube), and where a hole ends in the
+    // same plane as the wall around it, an annulus joins two tubes into one component.
     TempDir dir;
     const test::CliResult r = runCli("mesh '" + test::realData("gaffer_smoke_fog.vdb") + "' -o '" + dir.path("s.ply") +
                                      "' --report '" + dir.path("s.json") + "'");
@@ -398,13 +411,17 @@ TEST(Cli, MeshesTheRealSmokeAsManyClosedPieces)
     const nlohmann::json j = readJson(dir.path("s.json"));
     const int tubes = j["statistics"]["tubes"].get<int>();
     const int annuli = j["statistics"]["annular_caps"].get<int>();
+    const int junctions = j["events"]["forks"].get<int>() + j["events"]["merges"].get<int>();
     EXPECT_GT(tubes, 10);
+    EXPECT_EQ(j["statistics"]["caps"].get<int>(), 2 * tubes - 2 * annuli - j["events"]["saddles"].get<int>() - 2 * junctions);
     for (const auto& level : j["levels"]) {
         const Topology t = checkTopology(readMesh(level["file"].get<std::string>()));
         EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
-        // A hole joined at both ends makes one component of two tubes with two annuli.
-        EXPECT_GE(t.components, tubes - annuli);
+        EXPECT_EQ(t.euler, j["events"]["built_euler"].get<long long>());
+        EXPECT_EQ(t.euler, level["euler"].get<long long>());
+        // Each annulus or junction joins tubes: at most one component per tube, at least one per
+        // tube less the joins.
         EXPECT_LE(t.components, tubes - (annuli + 1) / 2);
-        EXPECT_EQ(t.euler, 2 * (tubes - annuli));
+        EXPECT_GE(t.components, tubes - annuli - j["events"]["saddles"].get<int>() - junctions);
     }
 }

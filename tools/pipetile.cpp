@@ -52,6 +52,22 @@ json distanceJson(const pipetile::DistanceStats& d, double voxel)
 }
 
 // The report's validation block (DESIGN.md): distances in world units, plus the same in voxels.
+// The skeleton: segments with their ends and extent along the slicing axis (index space), and
+// the junctions joining them.
+json graphJson(const pipetile::Reconstruction& reconstruction)
+{
+    const pipetile::Skeleton skeleton = reconstruction.skeleton();
+    json segments = json::array(), junctions = json::array();
+    for (const pipetile::Skeleton::Segment& s : skeleton.segments)
+        segments.push_back({{"hole", s.hole}, {"first_w", s.wFirst}, {"last_w", s.wLast}, {"contours", s.contours},
+                            {"bottom", s.bottom}, {"top", s.top}, {"bottom_junction", s.bottomJunction},
+                            {"top_junction", s.topJunction}});
+    for (const pipetile::Skeleton::Junction& j : skeleton.junctions)
+        junctions.push_back({{"kind", pipetile::toString(j.kind)}, {"w", j.w}, {"crotch_w", j.crotchW},
+                             {"single", j.single}, {"partners", j.partners}});
+    return {{"segments", segments}, {"junctions", junctions}};
+}
+
 json validationJson(const pipetile::Validation& v)
 {
     const pipetile::Topology& t = v.topology;
@@ -182,8 +198,13 @@ int runMesh(const MeshArgs& args)
                         {"dropped_unwound_contours", stats.droppedUnwound},
                         {"dropped_flat_contours", stats.droppedFlat}, {"end_contours", stats.endContours},
                         {"flat_caps", stats.flatCaps}, {"clipped_caps", stats.clippedCaps},
-                        {"annular_caps", stats.annularCaps},
+                        {"annular_caps", stats.annularCaps}, {"caps", stats.caps},
                         {"seconds", stats.seconds}}},
+        {"events", {{"starts", stats.starts}, {"ends", stats.ends}, {"forks", stats.forks}, {"merges", stats.merges},
+                    {"saddles", stats.saddles}, {"rims", stats.rims}, {"unresolved", stats.unresolvedEvents},
+                    {"unresolved_junctions", stats.unresolvedJunctions}, {"planes_added", stats.addedPlanes},
+                    {"euler", stats.eventEuler}, {"built_euler", stats.caps - stats.saddles}}},
+        {"graph", graphJson(reconstruction)},
         {"levels", json::array()},
     };
     std::printf("%s  grid '%s' (%s, iso %g), axis %s, %d slices, %d contours in %d tubes\n", volume.source().c_str(),
@@ -192,6 +213,7 @@ int runMesh(const MeshArgs& args)
     std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
     for (std::size_t k = 0; k < levels.size(); ++k) {
         const pipetile::LevelMesh& level = levels[k];
+        const pipetile::Topology topology = pipetile::checkTopology(level.mesh);
         report["levels"].push_back({
             {"level", level.level},
             {"rays", level.rays},
@@ -209,6 +231,8 @@ int runMesh(const MeshArgs& args)
             {"ambiguous_contours", level.ambiguousContours},
             {"ambiguous_sectors", level.ambiguousSectors},
             {"interpolation_fallbacks", level.interpolationFallbacks},
+            {"euler", topology.euler},
+            {"components", topology.components},
         });
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
                     level.mesh.triangles.size(), level.seconds, written[k].c_str());

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <pipetile/contour.h>
+#include <pipetile/graph.h>
 #include <pipetile/mesh_io.h>
 #include <pipetile/slicer.h>
 #include <pipetile/tiler.h>
@@ -80,7 +81,21 @@ struct ReconstructionStats {
     int droppedUnwound = 0;        // loops that do not wind around their central point
     int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
     int endContours = 0;           // contours added a quarter voxel inside where a tube ends
-    int tubes = 0;                 // chains of corresponding contours, each closed by two caps
+    int tubes = 0;                 // segments: chains of contours joined one to one (bands), each
+                                   // closed at either end by a cap, a rim or a junction
+    int addedPlanes = 0;           // planes added between slices where an event lies (bisection)
+    int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
+    int saddles = 0;               // of which saddles: n - 1 per 1:n or n:1 junction
+    int starts = 0, ends = 0;      // slab pieces where a tube begins (0:1) or ends (1:0)
+    int rims = 0;                  // pieces where a wall and its hole end together
+    int unresolvedEvents = 0;      // pieces of any other pattern: their contours are capped one by
+                                   // one, so the mesh's topology differs from the isosurface there
+    int unresolvedJunctions = 0;   // forks and merges whose contours could not be split into one
+                                   // arc per partner: capped one by one as well
+    long long eventEuler = 0;      // sum over the slab pieces of 2 - a - b: the isosurface's Euler
+                                   // characteristic as the slabs see it
+    int caps = 0;                  // tube ends closed by a cap (not a rim, not a junction): every
+                                   // level's Euler characteristic is caps - saddles
     int flatCaps = 0;              // caps with no apex found past the last slice (closed flat)
     int annularCaps = 0;           // hollow pipe rims: an outer and a hole contour ending in the
                                    // same plane, joined by an annulus (counted once, not as caps)
@@ -89,6 +104,29 @@ struct ReconstructionStats {
     long long longestBoundary = 0; // cracks in the longest boundary loop: rays beyond about this
                                    // many per contour meet the same pixels again and add no detail
     double seconds = 0.0;          // slicing, boundary walks and correspondence
+};
+
+/// The skeleton every level shares, as plain data (reports, and later centrelines and branch
+/// labels): segments, the chains of contours joined by bands, and the junctions between them.
+/// Positions are index-space w along the slicing axis.
+struct Skeleton {
+    struct Segment {
+        bool hole = false;           // the inner wall of a hollow pipe (or a void)
+        double wFirst = 0.0, wLast = 0.0;
+        int contours = 0;
+        const char* bottom = "cap";  // "cap", "flat cap", "rim" or "junction"
+        const char* top = "cap";
+        int bottomJunction = -1, topJunction = -1;
+    };
+    struct Junction {
+        EventKind kind = EventKind::Fork;
+        double w = 0.0;              // the single contour's plane
+        double crotchW = 0.0;        // the hub's, on the surface where it got there
+        int single = -1;             // segment ids
+        std::vector<int> partners;
+    };
+    std::vector<Segment> segments;
+    std::vector<Junction> junctions;
 };
 
 /// Stateful: holds the slices' boundary loops and the tubes; builds any level on request.
@@ -106,6 +144,12 @@ public:
     const SlicePlan& plan() const { return mPlan; }
     const ReconstructionStats& stats() const { return mStats; }
     const MeshOptions& options() const { return mOptions; }
+
+    /// The contour graph: planes (the plan's slices, then added ones) and the pieces joining them.
+    const ContourGraph& graph() const { return mGraph; }
+    Skeleton skeleton() const;
+    /// Index-space w of every plane of the graph.
+    const std::vector<double>& planePositions() const { return mPositions; }
 
     /// Casts the rays of `level` on the contours it keeps and tiles all tubes, from scratch.
     /// Thread-safe.
@@ -139,6 +183,7 @@ private:
         bool fan = false;          // fan around the apex: the end contour is star-shaped at the
                                    // finest level (then at every level, as rays nest)
         glm::dvec3 apexIndex{0.0}; // index-space apex of the cap
+        int junction = -1;         // the fork or merge this end joins (no cap); -1: none
         int annulus = -1;          // an outer wall's end: the hole tube whose end, in the same
                                    // plane, it joins by an annulus (a hollow pipe's rim); a hole
                                    // tube's end: the outer tube that closes it so. -1: a cap
@@ -148,6 +193,29 @@ private:
         TubeEnd bottom, top;
         bool hole = false;
     };
+    /// A fork or merge: one contour (`single`) split into arcs by cut points on its polygon, one
+    /// arc per contour on the other side (`many`), each arc tiled to its partner. Decided once.
+    struct Junction {
+        EventKind kind = EventKind::Fork;          // Fork: `single` lies below `many`; Merge: above
+        std::pair<int, int> single;                // (plane, loop)
+        std::vector<std::pair<int, int>> many;     // partner of arc i: many[arcOwner[i]]
+        std::vector<int> cuts;                     // polygon point indices on single's view, in
+                                                   // walk order; arc i runs from cuts[i] to cuts[i+1]
+        std::vector<int> arcOwner;
+        glm::dvec2 hub{0.0};                       // where the chords from the cuts meet: their
+        double hubW = 0.0;                         // mean, moved along the axis toward the partners
+                                                   // onto the surface (the crotch), if it gets there
+    };
+
+    // The stages of the constructor, in order.
+    struct SliceCounts { int small = 0, unwound = 0; };
+    std::vector<SliceLoop> traceContours(double w, SliceCounts& counts) const;
+    void traceSlices();
+    void correspond();
+    void resolveEvents();
+    bool splitJunction(Junction& junction) const;
+    void closeEnds();
+    void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
     void chooseSlices();
     /// A hollow pipe's rim: end contours of both walls where the wall ends, past their last slice.
@@ -159,6 +227,8 @@ private:
     std::vector<double> mPositions;            // the plan's slices, then the end contours' planes
     std::vector<std::vector<SliceLoop>> mLoops; // per plane of mPositions
     std::vector<Tube> mTubes;
+    std::vector<Junction> mJunctions;
+    ContourGraph mGraph;
     ReconstructionStats mStats;
 };
 

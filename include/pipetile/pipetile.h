@@ -3,6 +3,7 @@
 
 #include <pipetile/contour.h>
 #include <pipetile/error.h>
+#include <pipetile/graph.h>
 #include <pipetile/mesh_io.h>
 #include <pipetile/multires.h>
 #include <pipetile/slicer.h>

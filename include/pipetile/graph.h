@@ -1,0 +1,82 @@
+// pipetile — graph: which contours of adjacent planes belong together, decided from the volume
+// (TOPOLOGY.md). The isosurface inside the slab between two planes falls into connected pieces;
+// each piece meets some loops of the plane below and some of the plane above, and its pattern
+// (a loops below, b above) names the event there: a band (1:1), an end (1:0, 0:1), a fork (1:n),
+// a merge (n:1), a rim (a wall and its hole ending together). A genus-0 piece with a + b
+// boundary loops has Euler characteristic 2 - a - b, so the events' contributions add up to the
+// isosurface's.
+//
+// Pieces are found by labelling the slab's voxels: the inside voxels (8-connected within a plane,
+// as the boundary walk joins inside pixels, and joined across planes) and the outside voxels
+// (4-connected within a plane, joined across planes). A loop separates one inside and one outside
+// component of the slab; loops that separate the same two components lie on one piece. A slab
+// where a loop of each plane simply overlaps one loop of the other (a tube between two slices)
+// skips the labelling. Events are then refined by adding planes at dyadic positions inside the
+// slab (bisect), so that a fork's saddle lies within a fraction of a voxel of a plane.
+#pragma once
+
+#include <pipetile/contour.h>
+#include <pipetile/slicer.h>
+#include <pipetile/volume.h>
+
+#include <functional>
+#include <utility>
+#include <vector>
+
+namespace pipetile {
+
+/// What a slab's surface piece is, from its loops below and above.
+enum class EventKind {
+    Band,       // 1:1, the paper's band
+    Start,      // 0:1, a tube begins (a minimum of the height on the surface): a cap
+    End,        // 1:0, a tube ends (a maximum): a cap
+    Fork,       // 1:n of one kind (walls or holes), n >= 2: n - 1 saddles
+    Merge,      // n:1 of one kind, n >= 2: n - 1 saddles
+    Rim,        // a wall and the hole inside it begin or end together (0:2, 2:0): an annulus
+    Unresolved, // any other pattern; its loops are closed by caps of their own (wrong topology)
+};
+
+const char* toString(EventKind kind); // "band", "start", "end", "fork", "merge", "rim", "unresolved"
+
+/// One connected piece of the isosurface inside a slab: the loops it meets on either plane.
+struct SlabPiece {
+    std::vector<int> below, above; // loop indices in the lower and upper plane, ascending
+    EventKind kind = EventKind::Unresolved;
+    int euler() const { return 2 - static_cast<int>(below.size() + above.size()); }
+};
+
+/// The loops of one plane as the graph sees them.
+struct PlaneLoops {
+    double w = 0.0;                           // index-space position along the slicing axis
+    std::vector<const BoundaryLoop*> loops;   // the plane's contours (dropped loops excluded)
+    std::vector<glm::dvec2> centers;          // their central points
+};
+
+/// The pieces of the slab between `below` and `above` (below.w < above.w), each with its kind.
+/// Every loop of either plane lies on exactly one piece.
+std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                          const PlaneLoops& above);
+
+/// The kind of a piece from its pattern and which of its loops bound holes.
+EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneLoops& above);
+
+/// The contour graph of a stack of planes: nodes are (plane, loop), and each slab between planes
+/// adjacent in w holds the pieces that join them.
+struct ContourGraph {
+    struct Slab {
+        int below = -1, above = -1;     // plane indices
+        std::vector<SlabPiece> pieces;
+    };
+    std::vector<int> order;             // plane indices by increasing w
+    std::vector<Slab> slabs;            // between order[k] and order[k + 1]
+    int addedPlanes = 0;                // planes added by bisection
+};
+
+/// Builds the graph of `planes` (the slicing plan's planes, in increasing w), adding planes where
+/// a slab holds an event that is not a band or an end, until it is at most `minThickness` thick:
+/// `addPlane(w)` traces a new plane and returns its index into `planes` (which it appends to).
+/// Added planes sit at dyadic fractions of their slab, so they never depend on a level.
+ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
+                               double minThickness, const std::function<int(double w)>& addPlane);
+
+} // namespace pipetile

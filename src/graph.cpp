@@ -1,0 +1,247 @@
+// pipetile — graph: correspondence of contours through the slab between planes (TOPOLOGY.md).
+
+#include <pipetile/graph.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <numeric>
+
+namespace pipetile {
+
+namespace {
+
+struct PixelBox {
+    glm::ivec2 min{0}, max{0}; // inclusive
+    bool overlaps(const PixelBox& other) const
+    {
+        return min.x <= other.max.x && other.min.x <= max.x && min.y <= other.max.y && other.min.y <= max.y;
+    }
+};
+
+// The pixels a loop's cracks run around: corner (i, j) is the lower-left corner of pixel (i, j).
+PixelBox boxOf(const BoundaryLoop& loop)
+{
+    PixelBox box{loop.corners.front(), loop.corners.front() - 1};
+    for (const glm::ivec2& c : loop.corners) {
+        box.min = glm::min(box.min, c);
+        box.max = glm::max(box.max, c - 1);
+    }
+    return box;
+}
+
+// The inside and outside pixels on either side of the loop's first crack (the walk keeps the
+// inside on its left, for holes too).
+std::pair<glm::ivec2, glm::ivec2> pixelsBeside(const BoundaryLoop& loop)
+{
+    const glm::ivec2 c0 = loop.corners[0], c1 = loop.corners[1 % loop.corners.size()];
+    const glm::ivec2 d = c1 - c0;
+    const glm::ivec2 left(-d.y, d.x);
+    // Crack midpoint in pixel coordinates is (c0 + c1) / 2 - 1/2; the pixels lie half a pixel to
+    // either side. Doubled to stay in integers: 2p = c0 + c1 - 1 +- left.
+    const glm::ivec2 twice = c0 + c1 - 1;
+    return {(twice + left) / 2, (twice - left) / 2};
+}
+
+// Union-find over the slab's voxels.
+struct Labels {
+    std::vector<std::int32_t> parent;
+    explicit Labels(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+    std::int32_t find(std::int32_t x)
+    {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+    }
+    void join(std::int32_t a, std::int32_t b)
+    {
+        a = find(a);
+        b = find(b);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+};
+
+// A loop of each plane overlapping exactly one loop of the same kind on the other plane, both
+// ways: then every piece is a band, and the slab needs no labelling. Overlap is a bounding-box
+// test followed by one central point inside the other loop.
+bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<SlabPiece>& pieces)
+{
+    if (below.loops.size() != above.loops.size()) return false;
+    std::vector<PixelBox> boxesAbove;
+    for (const BoundaryLoop* loop : above.loops) boxesAbove.push_back(boxOf(*loop));
+    std::vector<int> partnerOfAbove(above.loops.size(), -1);
+    for (std::size_t i = 0; i < below.loops.size(); ++i) {
+        const BoundaryLoop& a = *below.loops[i];
+        const PixelBox box = boxOf(a);
+        int partner = -1;
+        for (std::size_t j = 0; j < above.loops.size(); ++j) {
+            const BoundaryLoop& b = *above.loops[j];
+            if (b.hole() != a.hole() || !box.overlaps(boxesAbove[j])) continue;
+            if (partner >= 0) return false; // two candidates: let the volume decide
+            partner = static_cast<int>(j);
+        }
+        if (partner < 0 || partnerOfAbove[partner] >= 0) return false;
+        const BoundaryLoop& b = *above.loops[partner];
+        if (!encloses(a, above.centers[partner]) && !encloses(b, below.centers[i])) return false;
+        partnerOfAbove[partner] = static_cast<int>(i);
+        pieces.push_back({{static_cast<int>(i)}, {partner}, EventKind::Band});
+    }
+    return true;
+}
+
+} // namespace
+
+const char* toString(EventKind kind)
+{
+    switch (kind) {
+    case EventKind::Band: return "band";
+    case EventKind::Start: return "start";
+    case EventKind::End: return "end";
+    case EventKind::Fork: return "fork";
+    case EventKind::Merge: return "merge";
+    case EventKind::Rim: return "rim";
+    case EventKind::Unresolved: return "unresolved";
+    }
+    return "unresolved";
+}
+
+EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneLoops& above)
+{
+    const std::size_t a = piece.below.size(), b = piece.above.size();
+    auto holes = [](const std::vector<int>& ids, const PlaneLoops& plane) {
+        return static_cast<std::size_t>(
+            std::count_if(ids.begin(), ids.end(), [&](int i) { return plane.loops[i]->hole(); }));
+    };
+    const std::size_t holesBelow = holes(piece.below, below), holesAbove = holes(piece.above, above);
+    const bool oneKind = (holesBelow == 0 || holesBelow == a) && (holesAbove == 0 || holesAbove == b) &&
+                         (a == 0 || b == 0 || (holesBelow == 0) == (holesAbove == 0));
+    if (a == 1 && b == 1) return oneKind ? EventKind::Band : EventKind::Unresolved;
+    if (a == 0 && b == 1) return EventKind::Start;
+    if (a == 1 && b == 0) return EventKind::End;
+    if (oneKind && a == 1 && b >= 2) return EventKind::Fork;
+    if (oneKind && a >= 2 && b == 1) return EventKind::Merge;
+    if ((a == 2 && b == 0 && holesBelow == 1) || (a == 0 && b == 2 && holesAbove == 1)) return EventKind::Rim;
+    return EventKind::Unresolved;
+}
+
+std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                          const PlaneLoops& above)
+{
+    std::vector<SlabPiece> pieces;
+    if (simpleBands(below, above, pieces)) return pieces;
+    pieces.clear();
+    if (below.loops.empty() && above.loops.empty()) return pieces;
+
+    // The layers: both planes and every voxel plane strictly between them (the field is linear
+    // in w between voxel planes, so these decide connectivity along w).
+    std::vector<double> layers{below.w};
+    for (double w = std::floor(below.w) + 1.0; w < above.w; w += 1.0)
+        if (w > below.w) layers.push_back(w);
+    layers.push_back(above.w);
+    const int depth = static_cast<int>(layers.size());
+
+    // The pixels: every loop of both planes, with a margin that grows with the slab's
+    // thickness (a tube leaning out between the planes); grown again if the inside touches it.
+    PixelBox box{glm::ivec2(std::numeric_limits<int>::max()), glm::ivec2(std::numeric_limits<int>::min())};
+    for (const PlaneLoops* plane : {&below, &above})
+        for (const BoundaryLoop* loop : plane->loops) {
+            const PixelBox b = boxOf(*loop);
+            box.min = glm::min(box.min, b.min);
+            box.max = glm::max(box.max, b.max);
+        }
+    int margin = 2 + static_cast<int>(std::ceil(2.0 * (above.w - below.w)));
+    std::vector<SlicePlane> planes;
+    for (double w : layers) planes.emplace_back(volume, plan, w);
+    for (;;) {
+        const glm::ivec2 lo = glm::max(box.min - margin, plan.pixelMin), hi = glm::min(box.max + margin, plan.pixelMax);
+        const int width = hi.x - lo.x + 1, height = hi.y - lo.y + 1;
+        const std::size_t layerSize = static_cast<std::size_t>(width) * height;
+        std::vector<std::uint8_t> inside(layerSize * depth);
+        bool touchesEdge = false;
+        for (int l = 0; l < depth; ++l)
+            for (int y = 0; y < height; ++y)
+                for (int x = 0; x < width; ++x) {
+                    const bool in = planes[l].inside(lo.x + x, lo.y + y);
+                    inside[l * layerSize + static_cast<std::size_t>(y) * width + x] = in;
+                    const bool edge = x == 0 || y == 0 || x + 1 == width || y + 1 == height;
+                    touchesEdge = touchesEdge || (in && edge && (lo.x + x > plan.pixelMin.x || true));
+                }
+        const bool clipped = lo.x == plan.pixelMin.x && lo.y == plan.pixelMin.y && hi.x == plan.pixelMax.x &&
+                             hi.y == plan.pixelMax.y;
+        if (touchesEdge && !clipped) {
+            margin *= 2;
+            continue;
+        }
+        // Label: inside voxels 8-connected in a layer, outside 4-connected, both joined along w;
+        // every outside voxel on the box's rim joins one exterior (node `exterior`).
+        const std::int32_t exterior = static_cast<std::int32_t>(layerSize * depth);
+        Labels labels(layerSize * depth + 1);
+        auto id = [&](int l, int x, int y) { return static_cast<std::int32_t>(l * layerSize + static_cast<std::size_t>(y) * width + x); };
+        for (int l = 0; l < depth; ++l)
+            for (int y = 0; y < height; ++y)
+                for (int x = 0; x < width; ++x) {
+                    const std::int32_t p = id(l, x, y);
+                    const bool in = inside[p];
+                    auto link = [&](int lq, int xq, int yq) {
+                        const std::int32_t q = id(lq, xq, yq);
+                        if (inside[q] == in) labels.join(p, q);
+                    };
+                    if (x + 1 < width) link(l, x + 1, y);
+                    if (y + 1 < height) link(l, x, y + 1);
+                    if (in && y + 1 < height && x + 1 < width) link(l, x + 1, y + 1);
+                    if (in && y + 1 < height && x > 0) link(l, x - 1, y + 1);
+                    if (l + 1 < depth) link(l + 1, x, y);
+                    if (!in && (x == 0 || y == 0 || x + 1 == width || y + 1 == height)) labels.join(p, exterior);
+                }
+        // A loop separates the inside and outside components beside its first crack.
+        std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> pieceOf;
+        auto place = [&](const BoundaryLoop& loop, int layer, int index, bool isBelow) {
+            const auto [in, out] = pixelsBeside(loop);
+            const std::pair<std::int32_t, std::int32_t> key{labels.find(id(layer, in.x - lo.x, in.y - lo.y)),
+                                                            labels.find(id(layer, out.x - lo.x, out.y - lo.y))};
+            const auto [it, added] = pieceOf.insert({key, pieces.size()});
+            if (added) pieces.emplace_back();
+            (isBelow ? pieces[it->second].below : pieces[it->second].above).push_back(index);
+        };
+        for (std::size_t i = 0; i < below.loops.size(); ++i) place(*below.loops[i], 0, static_cast<int>(i), true);
+        for (std::size_t j = 0; j < above.loops.size(); ++j) place(*above.loops[j], depth - 1, static_cast<int>(j), false);
+        break;
+    }
+    for (SlabPiece& piece : pieces) piece.kind = classify(piece, below, above);
+    return pieces;
+}
+
+ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
+                               double minThickness, const std::function<int(double w)>& addPlane)
+{
+    ContourGraph graph;
+    const int original = static_cast<int>(planes.size());
+    auto needsPlanes = [](const std::vector<SlabPiece>& pieces) {
+        return std::any_of(pieces.begin(), pieces.end(), [](const SlabPiece& p) {
+            return p.kind == EventKind::Fork || p.kind == EventKind::Merge || p.kind == EventKind::Unresolved;
+        });
+    };
+    // Halves a slab while it holds a fork, merge or unresolved piece and is thicker than
+    // minThickness; appends the slabs in order of w.
+    const auto refine = [&](const auto& self, int below, int above, std::vector<SlabPiece> pieces) -> void {
+        const double wBelow = planes[below].w, wAbove = planes[above].w;
+        if (!needsPlanes(pieces) || wAbove - wBelow <= minThickness) {
+            graph.slabs.push_back({below, above, std::move(pieces)});
+            return;
+        }
+        const int middle = addPlane(0.5 * (wBelow + wAbove));
+        std::vector<SlabPiece> lower = connectThroughSlab(volume, plan, planes[below], planes[middle]);
+        std::vector<SlabPiece> upper = connectThroughSlab(volume, plan, planes[middle], planes[above]);
+        self(self, below, middle, std::move(lower));
+        self(self, middle, above, std::move(upper));
+    };
+    for (int k = 0; k + 1 < original; ++k)
+        refine(refine, k, k + 1, connectThroughSlab(volume, plan, planes[k], planes[k + 1]));
+    graph.addedPlanes = static_cast<int>(planes.size()) - original;
+    graph.order.push_back(0);
+    for (const ContourGraph::Slab& slab : graph.slabs) graph.order.push_back(slab.above);
+    if (original == 0) graph.order.clear();
+    return graph;
+}
+
+} // namespace pipetile
