@@ -172,7 +172,21 @@ bool encloses(const BoundaryLoop& loop, const glm::dvec2& p)
 
 namespace {
 
-// The enclosed pixel farthest from the boundary, by a 3-4 chamfer distance over the loop's box.
+// Even-odd test against the marching-squares polygon, which rays are cut against.
+bool insidePolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p)
+{
+    bool in = false;
+    const std::size_t m = polygon.size();
+    for (std::size_t i = 0, j = m - 1; i < m; j = i++) {
+        const glm::dvec2 a = polygon[i], b = polygon[j];
+        if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x) in = !in;
+    }
+    return in;
+}
+
+// The enclosed pixel farthest from the boundary, by a 3-4 chamfer distance over the loop's box,
+// among those inside the marching-squares polygon (in a sliver a pixel or two wide, the deepest
+// pixel centre can lie outside it); the centroid if there is none.
 glm::dvec2 deepestPixel(const BoundaryLoop& loop)
 {
     glm::ivec2 lo = loop.corners[0], hi = loop.corners[0];
@@ -211,8 +225,10 @@ glm::dvec2 deepestPixel(const BoundaryLoop& loop)
             relax(x, y, 1, 0, 3); relax(x, y, 0, 1, 3); relax(x, y, 1, 1, 4); relax(x, y, -1, 1, 4);
         }
     for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x)
-            if (dist[y * w + x] > best) { best = dist[y * w + x]; point = glm::dvec2(x + origin.x, y + origin.y); }
+        for (int x = 0; x < w; ++x) {
+            const glm::dvec2 p(x + origin.x, y + origin.y);
+            if (dist[y * w + x] > best && insidePolygon(loop.points, p)) { best = dist[y * w + x]; point = p; }
+        }
     return point;
 }
 
@@ -621,7 +637,7 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
 glm::dvec2 centralPoint(const BoundaryLoop& loop)
 {
     if (loop.corners.empty()) return loop.centroid;
-    return encloses(loop, loop.centroid) ? loop.centroid : deepestPixel(loop);
+    return encloses(loop, loop.centroid) && insidePolygon(loop.points, loop.centroid) ? loop.centroid : deepestPixel(loop);
 }
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)

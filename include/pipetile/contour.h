@@ -125,8 +125,9 @@ struct Contour {
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane);
 std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
 
-/// A point inside the region a loop encloses: its centroid when that lies inside, else the
-/// enclosed pixel farthest from the boundary (chamfer distance; C-shaped sections).
+/// A point inside the region a loop encloses, and inside its marching-squares polygon (what rays
+/// are cut against): its centroid when that lies inside, else the enclosed pixel farthest from the
+/// boundary (chamfer distance; C-shaped sections) that lies inside the polygon.
 glm::dvec2 centralPoint(const BoundaryLoop& loop);
 
 /// Even-odd test: does the loop's polygon enclose the point?
