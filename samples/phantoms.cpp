@@ -74,6 +74,49 @@ double roundedExtrusionDistance(double d2, double z, double halfHeight, double r
     return std::min(std::max(w.x, w.y), 0.0) + glm::length(glm::max(w, glm::dvec2(0.0))) - rounding;
 }
 
+/// Exact signed distance to a ring around the z axis through `centre`: the points within `radius`
+/// of the vertical segment at distance `ringRadius` from the axis, z in centre.z +- halfHeight,
+/// swept around the axis. halfHeight 0 gives the torus (tube radius `radius` around a circle of
+/// radius `ringRadius`); a positive one stretches the tube's section into a vertical 2D capsule.
+/// Exact for ringRadius > radius: the distance in the (distance from the axis, z) half-plane to
+/// the 2D capsule, which is exact there, is the distance in space.
+double ringDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius, double radius,
+                    double halfHeight = 0.0)
+{
+    const glm::dvec3 q = p - centre;
+    const double z = q.z - glm::clamp(q.z, -halfHeight, halfHeight);
+    return glm::length(glm::dvec2(glm::length(glm::dvec2(q.x, q.y)) - ringRadius, z)) - radius;
+}
+
+/// Exact signed distance to a tube of radius `radius` around a racetrack (stadium curve) in the
+/// plane x = centre.x: two straight sides along z at y = centre.y +- ringRadius, z in
+/// centre.z +- halfLength, joined above and below by half circles of radius `ringRadius`. This is
+/// the torus with axis x elongated along z (Quilez's opElongate): for |q.z| <= halfLength the
+/// nearest centre-line point is on a straight side at the same z, beyond it on the half circle;
+/// exact for ringRadius > radius.
+double racetrackDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius,
+                         double radius, double halfLength)
+{
+    const glm::dvec3 q = p - centre;
+    const double z = q.z - glm::clamp(q.z, -halfLength, halfLength);
+    return glm::length(glm::dvec2(glm::length(glm::dvec2(q.y, z)) - ringRadius, q.x)) - radius;
+}
+
+/// Exact signed distance to a tube of radius `radius` around a half circle of radius `ringRadius`
+/// in the plane y = centre.y: the upper half (z >= centre.z) if `upper`, else the lower half. Its
+/// ends are centre +- (ringRadius, 0, 0). For points on the half's side of the diameter the
+/// nearest point of the full circle lies on the half; on the other side, an end is nearest.
+double halfRingDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius,
+                        double radius, bool upper)
+{
+    const glm::dvec3 q = p - centre;
+    if ((upper ? q.z : -q.z) >= 0.0) {
+        return glm::length(glm::dvec2(glm::length(glm::dvec2(q.x, q.z)) - ringRadius, q.y)) - radius;
+    }
+    const glm::dvec3 end(ringRadius, 0.0, 0.0);
+    return std::min(glm::length(q - end), glm::length(q + end)) - radius;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Tubes around curved centre lines: distance to a union of balls, found numerically
 
@@ -327,16 +370,44 @@ struct HelixLine {
     }
 };
 
+/// The oblique sample's centre line: a tight helix of radius 10 around (20, 20), pitch 16, four
+/// turns over s in [8, 72], tube radius 1.5. The centre moves 2 pi 10 / 16 = 3.93 voxels
+/// sideways per voxel of z: the line is 75.7 degrees from the z axis.
+struct ObliqueLine {
+    double sMin = 8.0, sMax = 72.0;
+    double maxRadius = 1.5;
+    // |c'| = sqrt(1 + (10 w)^2) = 4.052; the radius is constant.
+    double maxSlope = 4.06;
+
+    static constexpr double w = kTwoPi / 16.0;
+
+    CentreLinePoint at(double s) const
+    {
+        const double sn = std::sin(w * s), cs = std::cos(w * s);
+        CentreLinePoint q;
+        q.c = {20.0 + 10.0 * cs, 20.0 + 10.0 * sn, s};
+        q.dc = {-10.0 * w * sn, 10.0 * w * cs, 1.0};
+        q.ddc = {-10.0 * w * w * cs, -10.0 * w * w * sn, 0.0};
+        q.r = 1.5;
+        return q;
+    }
+};
+
 /// Step of the centre-line tables, in voxels of s. Separate local minima of F lie tens of voxels
-/// apart along s, except near the lines' centres of curvature (about 100 voxels from the phantom's
-/// line, 25 from the helix's), where two minima merge with nearly equal values.
+/// apart along s (16 for the oblique helix's turns), except near the lines' centres of curvature
+/// (about 100 voxels from the phantom's line, 25 from the helix's, 10.6 from the oblique's), where
+/// two minima merge with nearly equal values.
 constexpr double kTubeTableStep = 1.0;
 
 // ---------------------------------------------------------------------------------------------
 // The samples
 
+// Topology of each sample: genus g of each closed surface of the isosurface, euler = sum of
+// (2 - 2 g) over the surfaces; a void inside a solid is a surface of its own (facing inward).
+
 DistanceFunction phantomDistance()
 {
+    // One tube with round ends, nowhere touching itself: a sphere. Euler 2, 1 component.
     auto tube = std::make_shared<const TubeDistance<PhantomLine>>(PhantomLine{}, kTubeTableStep);
     return [tube](const glm::dvec3& p) { return (*tube)(p); };
 }
@@ -344,6 +415,7 @@ DistanceFunction phantomDistance()
 DistanceFunction straightDistance()
 {
     // Capsule along z through (32, 32), z in [16, 112], radius 10: exact.
+    // A sphere: euler 2, 1 component.
     return [](const glm::dvec3& p) {
         return capsuleDistance(p, {32.0, 32.0, 16.0}, {32.0, 32.0, 112.0}, 10.0);
     };
@@ -351,6 +423,8 @@ DistanceFunction straightDistance()
 
 DistanceFunction helixDistance()
 {
+    // Two turns of a tube of radius 6 whose turns are 64 apart (52 voxels of gap): a bent
+    // capsule, a sphere. Euler 2, 1 component.
     auto tube = std::make_shared<const TubeDistance<HelixLine>>(HelixLine{}, kTubeTableStep);
     return [tube](const glm::dvec3& p) { return (*tube)(p); };
 }
@@ -367,6 +441,8 @@ DistanceFunction beanDistance()
     // Arc of radius 18 around (48, 48), thickness 9 (inner radius 9, outer 27); extruded over
     // z in [16, 80] with edges rounded by 4. Exact: the hole (radius 9) and the gap between the
     // arms are wider than 8.
+    // The C is open (its arms do not meet), so the solid is a bent slab: a sphere. Euler 2,
+    // 1 component.
     const glm::dvec2 sinCos(std::sin(kBeanHalfAngle), std::cos(kBeanHalfAngle));
     return [sinCos](const glm::dvec3& p) {
         const double d2 = arcDistance2d(glm::dvec2(p.x - 48.0, p.y - 48.0), sinCos, 18.0, 9.0);
@@ -378,6 +454,8 @@ DistanceFunction hollowDistance()
 {
     // Annulus of inner radius 14 and outer 26 around (48, 48), extruded over z in [16, 112] with
     // edges rounded by 3. Exact: the hole (radius 14) is wider than 6.
+    // The hole goes through from end to end and the rims close the wall between the inner and
+    // outer sides: one closed surface of genus 1 (a torus). Euler 0, 1 component.
     return [](const glm::dvec3& p) {
         const double d2 = std::abs(glm::length(glm::dvec2(p.x - 48.0, p.y - 48.0)) - 20.0) - 6.0;
         return roundedExtrusionDistance(d2, p.z - 64.0, 48.0, 3.0);
@@ -389,6 +467,8 @@ DistanceFunction ybranchDistance()
     // Trunk (64,64,16)-(64,64,80) of radius 12 forking into two branches of radius 9 that reach
     // x = 34 and x = 94 at z = 144. The union's distance is exact outside; inside, near the fork,
     // it underestimates the depth.
+    // Three capsules fused at one point form a tree-shaped solid without loops: a sphere. Euler 2,
+    // 1 component.
     return [](const glm::dvec3& p) {
         const glm::dvec3 fork(64.0, 64.0, 80.0);
         const double trunk = capsuleDistance(p, {64.0, 64.0, 16.0}, fork, 12.0);
@@ -402,11 +482,234 @@ DistanceFunction twoTubesDistance()
 {
     // Two capsules along z through (28, 32) and (68, 32), z in [16, 112], radius 10. Exact: the
     // tubes are 20 voxels apart, farther than any depth inside them.
+    // Two disjoint spheres (gap 20): euler 2 + 2 = 4, 2 components.
     return [](const glm::dvec3& p) {
         const double a = capsuleDistance(p, {28.0, 32.0, 16.0}, {28.0, 32.0, 112.0}, 10.0);
         const double b = capsuleDistance(p, {68.0, 32.0, 16.0}, {68.0, 32.0, 112.0}, 10.0);
         return std::min(a, b);
     };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Samples of known topology: each is a shape a cross-section tiler must get right (branches in
+// and across slice planes, loops, holes, voids, thin fast-moving tubes). Unions are min and
+// differences max(a, -b) of exact distances: exact outside a union and inside a difference's
+// wall where the removed part lies wholly inside the other (lumen-rod, tank); elsewhere a
+// 1-Lipschitz bound with the right zero set, which is all the band and the flood fill need. All
+// lie with z the longest side of the active bounding box, so the automatic slicing axis is z.
+
+DistanceFunction tbranchDistance()
+{
+    // Main tube (32, 32, 16)-(32, 32, 112) of radius 8 and a side branch along x from its axis
+    // at mid-height to (66, 32, 64), radius 6. The side branch's axis lies in the plane z = 64,
+    // a slice plane of the default slicing: the active box starts at z = 6 (the band 2 below the
+    // bottom cap at z = 8) and slices come every 2 voxels from there.
+    // Two capsules fused along the branch's root, no loop: a sphere. Euler 2, 1 component.
+    return [](const glm::dvec3& p) {
+        const double main = capsuleDistance(p, {32.0, 32.0, 16.0}, {32.0, 32.0, 112.0}, 8.0);
+        const double side = capsuleDistance(p, {32.0, 32.0, 64.0}, {66.0, 32.0, 64.0}, 6.0);
+        return std::min(main, side);
+    };
+}
+
+/// End points of the trifurcation's branches: 28 voxels from the trunk's axis at 90, 210 and 330
+/// degrees, z = 112. Three directions 48 degrees apart, not in one plane.
+glm::dvec3 trifurcationEnd(int k)
+{
+    const double angle = (90.0 + 120.0 * k) * kPi / 180.0;
+    return {48.0 + 28.0 * std::cos(angle), 48.0 + 28.0 * std::sin(angle), 112.0};
+}
+
+DistanceFunction trifurcationDistance()
+{
+    // Trunk (48, 48, 16)-(48, 48, 60) of radius 9 forking at its top into three branches of
+    // radius 6 to trifurcationEnd(0..2); their ends are 48.5 apart (gap 36.5).
+    // Four capsules fused at one point, no loop: a sphere. Euler 2, 1 component.
+    return [](const glm::dvec3& p) {
+        const glm::dvec3 fork(48.0, 48.0, 60.0);
+        double d = capsuleDistance(p, {48.0, 48.0, 16.0}, fork, 9.0);
+        for (int k = 0; k < 3; ++k) d = std::min(d, capsuleDistance(p, fork, trifurcationEnd(k), 6.0));
+        return d;
+    };
+}
+
+DistanceFunction ubendDistance()
+{
+    // Arms along z through (32, 32) and (64, 32), z in [16, 88], radius 7 (gap 18), joined at the
+    // top by the upper half of a ring of radius 16 around (48, 32, 88) in the plane y = 32: a U
+    // standing across the slices, two sections low down merging into one at the bend.
+    // One bent tube with round ends: a sphere. Euler 2, 1 component.
+    return [](const glm::dvec3& p) {
+        const double left = capsuleDistance(p, {32.0, 32.0, 16.0}, {32.0, 32.0, 88.0}, 7.0);
+        const double right = capsuleDistance(p, {64.0, 32.0, 16.0}, {64.0, 32.0, 88.0}, 7.0);
+        const double bend = halfRingDistance(p, {48.0, 32.0, 88.0}, 16.0, 7.0, true);
+        return std::min({left, right, bend});
+    };
+}
+
+DistanceFunction xcrossDistance()
+{
+    // Capsules (16, 24, 16)-(48, 24, 112) and (48, 24, 16)-(16, 24, 112) of radius 7, crossing at
+    // (32, 24, 64) at 37 degrees. In a plane z = c their sections are ellipses 7 / cos(18.4 deg) =
+    // 7.38 long along x, centres 32 |1 - (z - 16) / 48| apart: they overlap for z in about
+    // (42, 86), so two sections fuse into one and part again; at the ends they are 32 apart
+    // (gap 18).
+    // Two straight capsules crossing once make a solid X without a loop: a sphere. Euler 2,
+    // 1 component.
+    return [](const glm::dvec3& p) {
+        const double a = capsuleDistance(p, {16.0, 24.0, 16.0}, {48.0, 24.0, 112.0}, 7.0);
+        const double b = capsuleDistance(p, {48.0, 24.0, 16.0}, {16.0, 24.0, 112.0}, 7.0);
+        return std::min(a, b);
+    };
+}
+
+DistanceFunction torusFlatDistance()
+{
+    // A ring around the z axis through (28, 28, 32) lying flat in the slices: tube radius 6 at
+    // distance 14 from the axis (hole radius 8). A round torus would be 40 wide and 12 tall, and
+    // the automatic axis would slice it along x; its section is stretched instead into a vertical
+    // 2D capsule of half-height 17 (z in [9, 55], 46 tall), so z stays the longest side.
+    // The hole goes through: one surface of genus 1. Euler 0, 1 component.
+    return [](const glm::dvec3& p) { return ringDistance(p, {28.0, 28.0, 32.0}, 14.0, 6.0, 17.0); };
+}
+
+DistanceFunction torusStandingDistance()
+{
+    // A ring with axis x standing across the slices: a tube of radius 6 around a racetrack in the
+    // plane x = 24, straight sides at y = 32 +- 16 for z in 56 +- 24 joined by half circles of
+    // radius 16 (z in [10, 102]; the hole is 20 wide and 68 tall). Slices see two sections that
+    // merge at the top and bottom bends.
+    // One surface of genus 1. Euler 0, 1 component.
+    return [](const glm::dvec3& p) { return racetrackDistance(p, {24.0, 32.0, 56.0}, 16.0, 6.0, 24.0); };
+}
+
+DistanceFunction twoToriDistance()
+{
+    // Two rings like torus-flat's (axis z, ring radius 12, tube radius 5, section stretched to a
+    // vertical capsule of half-height 28, z in [7, 73]) around (28, 28) and (52, 28): their centre
+    // circles touch at (40, 28), where the walls fuse over their full thickness 10. Each keeps
+    // its own hole (radius 7); the lens between the circles is only the touching point, so no
+    // third hole opens. Lying flat: every slice is a figure eight, one outer contour around two
+    // holes. Stretched so that z (66 tall) is longer than x (58 wide).
+    // Two tori joined along a disc: one surface of genus 2. Euler 2 - 2 * 2 = -2, 1 component.
+    return [](const glm::dvec3& p) {
+        return std::min(ringDistance(p, {28.0, 28.0, 40.0}, 12.0, 5.0, 28.0),
+                        ringDistance(p, {52.0, 28.0, 40.0}, 12.0, 5.0, 28.0));
+    };
+}
+
+/// The hollow Y's skeleton: trunk from (48, 32, 16) up to the fork (48, 32, 56), branches from the
+/// fork to (24, 32, 104) and (72, 32, 104), all in the plane y = 32.
+constexpr double kHollowYOuterRadius = 11.0, kHollowYInnerRadius = 6.0;
+/// How far the inner Y's segments run past the outer's ends: beyond the outer caps (11).
+constexpr double kHollowYOverrun = 20.0;
+
+DistanceFunction hollowYDistance()
+{
+    // Outer Y of radius 11 minus inner Y of radius 6 on the same skeleton, the inner segments
+    // continued 20 voxels past the three ends: wall 5 thick, a channel 12 wide that pierces all
+    // three end caps (the rim of each end is where the channel's cylinder cuts the outer cap,
+    // 9.2 past the end point along the axis).
+    // A Y-shaped pipe open at three ends: the solid is a thickened pair of pants, a handlebody of
+    // genus 2 (three openings = a sphere with three discs removed, doubled by the wall). One
+    // surface of genus 2: euler -2, 1 component.
+    return [](const glm::dvec3& p) {
+        const glm::dvec3 bottom(48.0, 32.0, 16.0), fork(48.0, 32.0, 56.0);
+        const glm::dvec3 left(24.0, 32.0, 104.0), right(72.0, 32.0, 104.0);
+        const auto past = [&](const glm::dvec3& from, const glm::dvec3& end) {
+            return end + kHollowYOverrun * glm::normalize(end - from);
+        };
+        const auto y = [&](double radius, double overrun) {
+            const glm::dvec3 b = overrun > 0.0 ? past(fork, bottom) : bottom;
+            const glm::dvec3 l = overrun > 0.0 ? past(fork, left) : left;
+            const glm::dvec3 r = overrun > 0.0 ? past(fork, right) : right;
+            return std::min({capsuleDistance(p, b, fork, radius), capsuleDistance(p, fork, l, radius),
+                             capsuleDistance(p, fork, r, radius)});
+        };
+        return std::max(y(kHollowYOuterRadius, 0.0), -y(kHollowYInnerRadius, kHollowYOverrun));
+    };
+}
+
+DistanceFunction lumenRodDistance()
+{
+    // Solid rod (32, 32, 16)-(32, 32, 112) of radius 12 holding a closed channel
+    // (32, 32, 44)-(32, 32, 84) of radius 4: the wall around it is 8 thick at the sides and 24 at
+    // its ends. Exact: rod minus a cavity wholly inside it.
+    // Two surfaces, each a sphere: the rod's outer shell and the channel's wall facing inward.
+    // Euler 2 + 2 = 4, 2 components.
+    return [](const glm::dvec3& p) {
+        const double rod = capsuleDistance(p, {32.0, 32.0, 16.0}, {32.0, 32.0, 112.0}, 12.0);
+        const double channel = capsuleDistance(p, {32.0, 32.0, 44.0}, {32.0, 32.0, 84.0}, 4.0);
+        return std::max(rod, -channel);
+    };
+}
+
+DistanceFunction tankDistance()
+{
+    // Closed cylinder around (32, 32), radius 24, z in 56 +- 44, edges rounded by 6, minus a void
+    // of radius 16, z in 56 +- 36, edges rounded by 3: walls and lids 8 thick. Exact: a void wholly
+    // inside the solid.
+    // Two spheres: the outer shell and the void's inward-facing wall. Euler 4, 2 components.
+    return [](const glm::dvec3& p) {
+        const double r = glm::length(glm::dvec2(p.x - 32.0, p.y - 32.0));
+        const double outer = roundedExtrusionDistance(r - 24.0, p.z - 56.0, 44.0, 6.0);
+        const double cavity = roundedExtrusionDistance(r - 16.0, p.z - 56.0, 36.0, 3.0);
+        return std::max(outer, -cavity);
+    };
+}
+
+DistanceFunction treeDistance()
+{
+    // Three generations: trunk (48, 48, 16)-(48, 48, 46) of radius 9; two branches of radius 7 in
+    // the plane y = 48 to (30, 48, 78) and (66, 48, 78); each forks again into two leaves of
+    // radius 5 ending at z = 114, 18 voxels off its fork point: the first in the plane x = 30
+    // (to y = 30 and 66), the second in a plane at 45 degrees to it (to (66 +- 12.7, 48 +- 12.7)).
+    // The nearest leaves, (30, 30) and (53.3, 35.3) at the top, are 23.9 apart (gap 13.9).
+    // Seven capsules joined at three fork points, a tree without loops: a sphere. Euler 2,
+    // 1 component.
+    return [](const glm::dvec3& p) {
+        const glm::dvec3 fork1(48.0, 48.0, 46.0), forkA(30.0, 48.0, 78.0), forkB(66.0, 48.0, 78.0);
+        const double spread = 18.0 / std::sqrt(2.0);
+        double d = capsuleDistance(p, {48.0, 48.0, 16.0}, fork1, 9.0);
+        d = std::min(d, capsuleDistance(p, fork1, forkA, 7.0));
+        d = std::min(d, capsuleDistance(p, fork1, forkB, 7.0));
+        d = std::min(d, capsuleDistance(p, forkA, {30.0, 30.0, 114.0}, 5.0));
+        d = std::min(d, capsuleDistance(p, forkA, {30.0, 66.0, 114.0}, 5.0));
+        d = std::min(d, capsuleDistance(p, forkB, {66.0 + spread, 48.0 + spread, 114.0}, 5.0));
+        d = std::min(d, capsuleDistance(p, forkB, {66.0 - spread, 48.0 - spread, 114.0}, 5.0));
+        return d;
+    };
+}
+
+DistanceFunction serpentineDistance()
+{
+    // Four arms along z at x = 14, 36, 58, 80 (y = 16, z in [26, 102], radius 6, gaps 10), joined
+    // by half rings of radius 11: on top between the first two and the last two, below between
+    // the middle two. The centre line goes up, down, up, down across the slices: three U-turns.
+    // One tube with two round ends, not touching itself: a sphere. Euler 2, 1 component.
+    return [](const glm::dvec3& p) {
+        double d = halfRingDistance(p, {25.0, 16.0, 102.0}, 11.0, 6.0, true);
+        d = std::min(d, halfRingDistance(p, {47.0, 16.0, 26.0}, 11.0, 6.0, false));
+        d = std::min(d, halfRingDistance(p, {69.0, 16.0, 102.0}, 11.0, 6.0, true));
+        for (const double x : {14.0, 36.0, 58.0, 80.0}) {
+            d = std::min(d, capsuleDistance(p, {x, 16.0, 26.0}, {x, 16.0, 102.0}, 6.0));
+        }
+        return d;
+    };
+}
+
+DistanceFunction obliqueDistance()
+{
+    // A thin tube (radius 1.5) at 75.7 degrees from z, wound into a tight helix (ObliqueLine) so
+    // that z stays the longest side (23 wide, 67 tall): a straight line that steep would be
+    // longer in x. Per 2 voxels of z the centre moves 7.85 voxels, 2.6 tube diameters. The
+    // sections, 12.2 long along the motion, still overlap in a lens about 4.3 x 2.3 voxels (in the
+    // grid, 24% of the section pixels lie over the previous slice's section): no tube of radius
+    // above 1 voxel can avoid that at a spacing of 2, since a vertical chord through its axis,
+    // 2 r / sin(slant) >= 2 r, then crosses two slice planes.
+    // The turns are 16 apart (gap 13). One tube with round ends: a sphere. Euler 2, 1 component.
+    auto tube = std::make_shared<const TubeDistance<ObliqueLine>>(ObliqueLine{}, kTubeTableStep);
+    return [tube](const glm::dvec3& p) { return (*tube)(p); };
 }
 
 struct SampleEntry {
@@ -416,30 +719,71 @@ struct SampleEntry {
 
 const std::vector<SampleEntry>& sampleTable()
 {
+    // {name, description, dims, voxel size, euler, components}; the functions' comments give the
+    // reasons for the topology.
     static const std::vector<SampleEntry> table = {
         {{"phantom",
           "256x256x512 tube, centre line wandering in x and y, radius breathing 21-31 "
           "(the paper's phantom; default input)",
-          {256, 256, 512}, 1.0},
+          {256, 256, 512}, 1.0, 2, 1},
          &phantomDistance},
         {{"straight", "64x64x128 capsule of radius 10 along z: circular contours, round end caps",
-          {64, 64, 128}, 1.0},
+          {64, 64, 128}, 1.0, 2, 1},
          &straightDistance},
         {{"helix", "96x96x160 tube of radius 6 along two helix turns: contours moving between slices",
-          {96, 96, 160}, 1.0},
+          {96, 96, 160}, 1.0, 2, 1},
          &helixDistance},
         {{"bean", "96x96x96 extruded C shape: centroid inside, but rays from it cross three times",
-          {96, 96, 96}, 1.0},
+          {96, 96, 96}, 1.0, 2, 1},
          &beanDistance},
         {{"hollow", "96x96x128 annular tube (radii 14 and 26): a hole in every cross-section",
-          {96, 96, 128}, 1.0},
+          {96, 96, 128}, 1.0, 0, 1},
          &hollowDistance},
         {{"ybranch", "128x128x160 trunk forking into two branches: one contour becomes two",
-          {128, 128, 160}, 1.0},
+          {128, 128, 160}, 1.0, 2, 1},
          &ybranchDistance},
         {{"two-tubes", "96x64x128 two parallel capsules of radius 10: two contours per slice",
-          {96, 64, 128}, 1.0},
+          {96, 64, 128}, 1.0, 4, 2},
          &twoTubesDistance},
+        {{"tbranch", "80x64x128 tube along z with a side branch along x lying in the slice z = 64",
+          {80, 64, 128}, 1.0, 2, 1},
+         &tbranchDistance},
+        {{"trifurcation", "96x96x128 trunk forking into three branches, not in one plane",
+          {96, 96, 128}, 1.0, 2, 1},
+         &trifurcationDistance},
+        {{"ubend", "96x64x128 two arms along z joined on top by a half ring: a U across the slices",
+          {96, 64, 128}, 1.0, 2, 1},
+         &ubendDistance},
+        {{"xcross", "64x48x128 two capsules crossing at 37 degrees: two sections fuse, then part",
+          {64, 48, 128}, 1.0, 2, 1},
+         &xcrossDistance},
+        {{"torus-flat", "56x56x64 ring around z lying flat (section stretched along z): genus 1",
+          {56, 56, 64}, 1.0, 0, 1},
+         &torusFlatDistance},
+        {{"torus-standing", "48x64x112 ring with axis x, a racetrack standing across the slices: genus 1",
+          {48, 64, 112}, 1.0, 0, 1},
+         &torusStandingDistance},
+        {{"two-tori", "80x56x80 two flat rings fused at one side, a figure eight: genus 2",
+          {80, 56, 80}, 1.0, -2, 1},
+         &twoToriDistance},
+        {{"hollow-y", "96x64x128 Y-shaped pipe open at its three ends: genus 2",
+          {96, 64, 128}, 1.0, -2, 1},
+         &hollowYDistance},
+        {{"lumen-rod", "64x64x128 solid rod holding a closed channel: outer shell and a void",
+          {64, 64, 128}, 1.0, 4, 2},
+         &lumenRodDistance},
+        {{"tank", "64x64x112 closed thick-walled cylinder around a void: two shells",
+          {64, 64, 112}, 1.0, 4, 2},
+         &tankDistance},
+        {{"tree", "96x96x128 vessel tree, trunk -> 2 -> 4 leaves, forks in different planes",
+          {96, 96, 128}, 1.0, 2, 1},
+         &treeDistance},
+        {{"serpentine", "96x32x128 tube going up and down across the slices, three U-turns",
+          {96, 32, 128}, 1.0, 2, 1},
+         &serpentineDistance},
+        {{"oblique", "40x40x80 thin tube (radius 1.5) at 76 degrees from z, wound in a tight helix",
+          {40, 40, 80}, 1.0, 2, 1},
+         &obliqueDistance},
     };
     return table;
 }

@@ -19,10 +19,16 @@ namespace pipetile::samples {
 using DistanceFunction = std::function<double(const glm::dvec3& world)>;
 
 struct SampleInfo {
-    std::string name;        // "phantom", "straight", "helix", "bean", "hollow", "ybranch", "two-tubes"
+    std::string name;        // "phantom", "straight", ..., "oblique": see sampleList()
     std::string description; // one line for `pipetile sample --list`
     glm::ivec3 dims{0};      // grid dimensions in voxels, index space [0, dims)
     double voxelSize = 1.0;  // world units per voxel
+    // Known topology of the sample's isosurface (volumeToMesh at the level set's zero), each
+    // sample's comment in phantoms.cpp says why: the Euler characteristic V - E + F, summed over
+    // the closed surfaces (2 - 2 genus each), and the number of those surfaces (an inward-facing
+    // void counts as one).
+    int euler = 0;
+    int components = 0;
 };
 
 /// All samples, in a fixed order; "phantom" first (it is the default input of `pipetile mesh`).

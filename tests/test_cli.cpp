@@ -3,6 +3,7 @@
 #include <pipetile/validate.h>
 #include <pipetile/volume.h>
 
+#include "phantoms.h"
 #include "test_util.h"
 
 #include <nlohmann/json.hpp>
@@ -72,8 +73,8 @@ TEST(Cli, SampleListNamesEverySample)
 {
     const test::CliResult r = runCli("sample --list");
     EXPECT_EQ(r.exitCode, 0);
-    for (const char* name : {"phantom", "straight", "helix", "bean", "hollow", "ybranch", "two-tubes"})
-        EXPECT_NE(r.out.find(name), std::string::npos) << name;
+    for (const samples::SampleInfo& info : samples::sampleList())
+        EXPECT_NE(r.out.find(info.name + ' '), std::string::npos) << info.name;
 }
 
 TEST(Cli, MeshesStraightSampleAsStarContours)

@@ -299,7 +299,7 @@ int runSample(const std::string& name, const std::string& output, bool list)
 {
     if (list || name.empty()) {
         for (const pipetile::samples::SampleInfo& s : pipetile::samples::sampleList())
-            std::printf("%-10s %4d x %4d x %4d  %s\n", s.name.c_str(), s.dims.x, s.dims.y, s.dims.z, s.description.c_str());
+            std::printf("%-14s %4d x %4d x %4d  %s\n", s.name.c_str(), s.dims.x, s.dims.y, s.dims.z, s.description.c_str());
         return 0;
     }
     if (output.empty()) throw pipetile::UsageError("sample: give the output file with -o FILE.vdb");
