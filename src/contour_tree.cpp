@@ -91,7 +91,8 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     auto rotated = [&](int edge) { return (edge - mStart + m) % m; }; // position on the walk from F_0
     std::vector<int> mainPath(c.rays + 1);
     mainPath[0] = 0;
-    for (int x = 1; x < c.rays; ++x) {
+    bool found = true;
+    for (int x = 1; x < c.rays && found; ++x) {
         int chosen = rotated(preferred(x));
         if (chosen <= mainPath[x - 1]) {
             chosen = m;
@@ -99,8 +100,27 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
                 if (rotated(candidate(x, k)) > mainPath[x - 1] && rotated(candidate(x, k)) < chosen)
                     chosen = rotated(candidate(x, k));
         }
-        if (chosen >= m) throw std::logic_error("ContourTree: no main path (internal invariant broken)");
+        found = chosen < m;
         mainPath[x] = chosen;
+    }
+    if (!found) {
+        // A preferred F edge came later on the walk than every F edge of a following sector. Count
+        // the sectors the walk has crossed from F_0 (F +1, B -1): it ends one turn on, at n, so
+        // it crosses each level x in 1..n-1 forward one last time, and those last crossings come
+        // in order (after crossing x for the last time, the walk stays beyond x). They are F
+        // edges of sector x, a path.
+        int lifted = 0;
+        for (int i = 0; i < m; ++i) {
+            const int edge = (mStart + i) % m;
+            if (c.edges[edge] == EdgeType::Forward) {
+                if (lifted >= 1 && lifted < c.rays) mainPath[lifted] = i;
+                ++lifted;
+            } else if (c.edges[edge] == EdgeType::Backward) {
+                --lifted;
+            }
+        }
+        for (int x = 1; x < c.rays; ++x)
+            if (mainPath[x] <= mainPath[x - 1]) throw std::logic_error("ContourTree: no main path (internal invariant broken)");
     }
     mainPath[c.rays] = m;
 

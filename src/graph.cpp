@@ -211,21 +211,37 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
     return pieces;
 }
 
+double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b)
+{
+    if (below.profiles.empty() || above.profiles.empty()) return 0.0;
+    const RadialProfile& p = *below.profiles[a];
+    const RadialProfile& q = *above.profiles[b];
+    double change = 0.0;
+    for (std::size_t d = 0; d < p.nearest.size() && d < q.nearest.size(); ++d) {
+        // A direction without crossings holds infinities on one side: an infinite change.
+        const double near = std::abs(p.nearest[d] - q.nearest[d]), far = std::abs(p.farthest[d] - q.farthest[d]);
+        change = std::max({change, std::isnan(near) ? 0.0 : near, std::isnan(far) ? 0.0 : far});
+    }
+    return change;
+}
+
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
-                               double minThickness, const std::function<int(double w)>& addPlane)
+                               double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane)
 {
     ContourGraph graph;
     const int original = static_cast<int>(planes.size());
-    auto needsPlanes = [](const std::vector<SlabPiece>& pieces) {
-        return std::any_of(pieces.begin(), pieces.end(), [](const SlabPiece& p) {
-            return p.kind == EventKind::Fork || p.kind == EventKind::Merge || p.kind == EventKind::Unresolved;
+    auto needsPlanes = [&](int below, int above, const std::vector<SlabPiece>& pieces) {
+        return std::any_of(pieces.begin(), pieces.end(), [&](const SlabPiece& p) {
+            return p.kind == EventKind::Fork || p.kind == EventKind::Merge || p.kind == EventKind::Unresolved ||
+                   (p.kind == EventKind::Band &&
+                    shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange);
         });
     };
     // Halves a slab while it holds a fork, merge or unresolved piece and is thicker than
     // minThickness; appends the slabs in order of w.
     const auto refine = [&](const auto& self, int below, int above, std::vector<SlabPiece> pieces) -> void {
         const double wBelow = planes[below].w, wAbove = planes[above].w;
-        if (!needsPlanes(pieces) || wAbove - wBelow <= minThickness) {
+        if (wAbove - wBelow <= minThickness || !needsPlanes(below, above, pieces)) {
             graph.slabs.push_back({below, above, std::move(pieces)});
             return;
         }

@@ -273,9 +273,15 @@ std::vector<Reconstruction::SliceLoop> Reconstruction::traceContours(double w, S
         if (std::abs(loop.area) < mOptions.minContourArea) { ++counts.small; continue; }
         LoopView view = viewFrom(loop, centralPoint(loop));
         if (view.winding != 1) { ++counts.unwound; continue; }
-        loops.push_back({std::move(loop), std::move(view)});
+        RadialProfile profile = radialProfile(view, profileDirections());
+        loops.push_back({std::move(loop), std::move(view), std::move(profile)});
     }
     return loops;
+}
+
+int Reconstruction::profileDirections() const
+{
+    return static_cast<int>(std::min(static_cast<long long>(mOptions.baseRays) << (mOptions.levels - 1), 256LL));
 }
 
 void Reconstruction::traceSlices()
@@ -305,19 +311,25 @@ void Reconstruction::correspond()
 {
     // A fork's crotch is the chord across its contour's neck, which lies within the slab's
     // thickness of the saddle (the surface curves away from the chord by less than that), so
-    // event slabs are halved until they are at most half a voxel thick.
-    constexpr double kEventThickness = 0.5;
+    // event slabs are halved until they are at most half a voxel thick. So are bands whose
+    // contours change shape by more than 3 pixels (graph.h, shapeChange): a profile changing by
+    // d across the slab along a parabola strays d / 4 from the band's straight triangles, so
+    // this keeps them within 0.75 voxel where the shape changes smoothly, and splits the slab
+    // where it does not (the aorta's end: 1.19 voxels without). Tubes that lean and turn (the
+    // helix: ellipses turning by up to 3 pixels between slices) follow their chords and get none.
+    constexpr double kEventThickness = 0.5, kShapeChange = 3.0;
     std::vector<PlaneLoops> planes(mLoops.size());
     auto describe = [&](std::size_t s) {
         planes[s].w = mPositions[s];
         for (const SliceLoop& l : mLoops[s]) {
             planes[s].loops.push_back(&l.loop);
             planes[s].centers.push_back(l.view.center);
+            planes[s].profiles.push_back(&l.profile);
         }
     };
     for (std::size_t s = 0; s < planes.size(); ++s) describe(s);
     SliceCounts dropped;
-    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, [&](double w) {
+    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, [&](double w) {
         mPositions.push_back(w);
         mLoops.push_back(traceContours(w, dropped)); // moving the outer vector keeps each loop in place
         planes.emplace_back();
@@ -489,7 +501,8 @@ void Reconstruction::closeEnds()
             if (view.winding != 1) continue;
             mPositions.push_back(wEnd);
             mLoops.push_back({});
-            mLoops.back().push_back({std::move(loops[best]), std::move(view)});
+            RadialProfile profile = radialProfile(view, profileDirections());
+            mLoops.back().push_back({std::move(loops[best]), std::move(view), std::move(profile)});
             const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
             if (top) tube.members.push_back(added);
             else tube.members.insert(tube.members.begin(), added);
@@ -585,8 +598,7 @@ void Reconstruction::chooseSlices()
     // depend on its own rays. Each as in-plane points, centre + r * direction, nearest and farthest crossing per
     // direction: rays pair crossings of one direction from each slice's own centre, and so do
     // these.
-    const int directions =
-        static_cast<int>(std::min(static_cast<long long>(mOptions.baseRays) << (mOptions.levels - 1), 256LL));
+    const int directions = profileDirections();
     struct Profile {
         std::vector<glm::dvec2> points; // per direction: nearest, farthest
         double radius = 0.0;            // the farthest crossing
@@ -599,7 +611,7 @@ void Reconstruction::chooseSlices()
         for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
             const SliceLoop& loop = mLoops[s][l];
             if (loop.group < 0) continue;
-            const RadialProfile radial = radialProfile(loop.view, directions);
+            const RadialProfile& radial = loop.profile;
             Profile& profile = profiles[s][l];
             profile.points.resize(2 * directions);
             for (int d = 0; d < directions; ++d) {
@@ -693,8 +705,10 @@ void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double re
     if (outerView.winding != 1 || holeView.winding != 1) return;
     mPositions.push_back(wEnd);
     mLoops.push_back({});
-    mLoops.back().push_back({std::move(loops[bestOuter]), std::move(outerView)});
-    mLoops.back().push_back({std::move(loops[bestHole]), std::move(holeView)});
+    RadialProfile outerProfile = radialProfile(outerView, profileDirections());
+    RadialProfile holeProfile = radialProfile(holeView, profileDirections());
+    mLoops.back().push_back({std::move(loops[bestOuter]), std::move(outerView), std::move(outerProfile)});
+    mLoops.back().push_back({std::move(loops[bestHole]), std::move(holeView), std::move(holeProfile)});
     const int plane2 = static_cast<int>(mPositions.size()) - 1;
     for (const auto& [tube, loop] : {std::pair<Tube*, int>{&outer, 0}, std::pair<Tube*, int>{&hole, 1}}) {
         if (top) tube->members.push_back({plane2, loop});

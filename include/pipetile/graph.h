@@ -50,6 +50,8 @@ struct PlaneLoops {
     double w = 0.0;                           // index-space position along the slicing axis
     std::vector<const BoundaryLoop*> loops;   // the plane's contours (dropped loops excluded)
     std::vector<glm::dvec2> centers;          // their central points
+    std::vector<const RadialProfile*> profiles; // their radial profiles, all along the same
+                                              // directions (or none: no shape test)
 };
 
 /// The pieces of the slab between `below` and `above` (below.w < above.w), each with its kind.
@@ -72,11 +74,19 @@ struct ContourGraph {
     int addedPlanes = 0;                // planes added by bisection
 };
 
+/// How far a band's two contours differ in shape, each seen from its own central point: the
+/// largest change of the nearest or farthest crossing along any profile direction (pixels). A
+/// tube that only moves or leans keeps its shape, and the band's straight triangles follow it;
+/// where the shape changes fast (a tube's end collapsing, an arm growing out of a section), they
+/// cut across the surface. Infinite where a direction meets one contour only, 0 without profiles.
+double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b);
+
 /// Builds the graph of `planes` (the slicing plan's planes, in increasing w), adding planes where
-/// a slab holds an event that is not a band or an end, until it is at most `minThickness` thick:
+/// a slab holds an event that is not a band or an end, or a band whose contours change shape by
+/// more than `maxShapeChange` pixels, until it is at most `minThickness` thick:
 /// `addPlane(w)` traces a new plane and returns its index into `planes` (which it appends to).
 /// Added planes sit at dyadic fractions of their slab, so they never depend on a level.
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
-                               double minThickness, const std::function<int(double w)>& addPlane);
+                               double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane);
 
 } // namespace pipetile

@@ -174,6 +174,7 @@ private:
     struct SliceLoop {
         BoundaryLoop loop;
         LoopView view; // from its central point: what every level's rays are cut against
+        RadialProfile profile; // along profileDirections(): the graph's shape test, slice choice
         int group = -1; // its tube's ray group (contours tiled together share their rays); -1:
                         // in no tube
         int fromLevel = kNever; // the coarsest level that tiles it; every finer level does too
@@ -210,6 +211,8 @@ private:
     // The stages of the constructor, in order.
     struct SliceCounts { int small = 0, unwound = 0; };
     std::vector<SliceLoop> traceContours(double w, SliceCounts& counts) const;
+    /// The finest level's ray count, at most 256 (the cost of comparing profiles grows with it).
+    int profileDirections() const;
     void traceSlices();
     void correspond();
     void resolveEvents();

@@ -1,0 +1,240 @@
+// Tests of the contour graph (correspondence through the slab, events, junctions) and of the
+// topology of every level on phantoms whose Euler characteristic is known (samples/phantoms.h).
+#include "phantoms.h"
+#include "test_util.h"
+
+#include <pipetile/graph.h>
+#include <pipetile/multires.h>
+#include <pipetile/validate.h>
+
+#include <gtest/gtest.h>
+
+#include <glm/geometric.hpp>
+
+#include <array>
+#include <cmath>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+using namespace pipetile;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Signed volume of each connected piece of a closed mesh (divergence theorem): positive for a
+// shell facing outward, negative for a void's shell facing into its cavity.
+std::vector<double> shellVolumes(const TriangleMesh& mesh)
+{
+    std::vector<int> parent(mesh.vertices.size());
+    for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<int>(i);
+    auto root = [&](int v) {
+        while (parent[v] != v) v = parent[v] = parent[parent[v]];
+        return v;
+    };
+    for (const Triangle& t : mesh.triangles) {
+        parent[root(t[1])] = root(t[0]);
+        parent[root(t[2])] = root(t[0]);
+    }
+    std::map<int, double> volume;
+    for (const Triangle& t : mesh.triangles) {
+        const glm::dvec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+        volume[root(t[0])] += glm::dot(a, glm::cross(b, c)) / 6.0;
+    }
+    std::vector<double> result;
+    for (const auto& [id, v] : volume) result.push_back(v);
+    return result;
+}
+
+const samples::SampleInfo& infoOf(const std::string& name)
+{
+    for (const samples::SampleInfo& info : samples::sampleList())
+        if (info.name == name) return info;
+    throw std::runtime_error("no sample " + name);
+}
+
+// Every level, refined from the one before: a closed, oriented 2-manifold with the phantom's
+// Euler characteristic and number of surfaces (voids facing into their cavities), equal to the
+// level built from scratch, its vertices a subset of the next level's bit for bit; the events'
+// contributions add up to the same Euler characteristic; the top level lies within one voxel of
+// volumeToMesh's isosurface, both ways.
+void expectIsosurfaceTopology(const std::string& name, int voids = 0)
+{
+    SCOPED_TRACE(name);
+    const samples::SampleInfo& info = infoOf(name);
+    const Volume& volume = test::cachedSample(name);
+    const Reconstruction reconstruction(volume, MeshOptions{});
+    EXPECT_EQ(reconstruction.stats().eventEuler, info.euler);
+    EXPECT_EQ(reconstruction.stats().caps - reconstruction.stats().saddles, info.euler);
+    EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
+    Refinement refinement(reconstruction);
+    std::set<std::array<double, 3>> coarser;
+    for (int level = 0;; ++level) {
+        SCOPED_TRACE("level " + std::to_string(level));
+        const TriangleMesh& mesh = refinement.mesh().mesh;
+        const Topology t = checkTopology(mesh);
+        EXPECT_TRUE(t.closed()) << t.boundaryEdges << " boundary edges";
+        EXPECT_TRUE(t.manifold()) << t.nonManifoldEdges << " non-manifold edges, " << t.nonManifoldVertices
+                                  << " non-manifold vertices";
+        EXPECT_TRUE(t.oriented()) << t.misorientedEdges << " misoriented edges";
+        EXPECT_EQ(t.euler, info.euler);
+        EXPECT_EQ(t.components, info.components);
+        int inward = 0;
+        for (double v : shellVolumes(mesh)) inward += v < 0.0 ? 1 : 0;
+        EXPECT_EQ(inward, voids);
+        const TriangleMesh scratch = reconstruction.buildLevel(level).mesh;
+        EXPECT_TRUE(scratch.vertices == mesh.vertices && scratch.triangles == mesh.triangles)
+            << "refining differs from building the level from scratch";
+        std::set<std::array<double, 3>> here;
+        for (const glm::dvec3& p : mesh.vertices) here.insert({p.x, p.y, p.z});
+        long long lost = 0;
+        for (const auto& p : coarser) lost += here.count(p) ? 0 : 1;
+        EXPECT_EQ(lost, 0) << "vertices of the level below that this level lacks";
+        coarser = std::move(here);
+        if (!refinement.canRefine()) break;
+        refinement.refine();
+    }
+    const Validation v = Validator(volume).validate(refinement.mesh().mesh);
+    EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
+    EXPECT_EQ(v.topology.euler, info.euler);
+}
+
+} // namespace
+
+TEST(Graph, SlabPiecesOfAFork)
+{
+    // The Y's trunk (radius 12, axis x = y = 64) forks at z = 80 into two branches of radius 9
+    // leaning 25 degrees out (sections 9 / cos 25 = 9.9 wide), whose sections part where their
+    // centres, 60 (z - 80) / 64 apart, are 19.9 apart: z = 101. Planes at 72 and 112 are joined by
+    // one piece with one loop below and two above (Euler characteristic -1: a pair of pants);
+    // planes at 60 and 72, both below the fork, by a band.
+    const Volume& volume = test::cachedSample("ybranch");
+    const SlicePlan plan = planSlices(volume, SliceOptions{});
+    std::vector<std::vector<BoundaryLoop>> loops;
+    std::vector<PlaneLoops> planes;
+    for (double w : {60.0, 72.0, 112.0}) {
+        loops.push_back(traceBoundaries(SlicePlane(volume, plan, w)));
+        planes.push_back({w, {}, {}, {}});
+    }
+    for (std::size_t k = 0; k < planes.size(); ++k)
+        for (const BoundaryLoop& loop : loops[k]) {
+            planes[k].loops.push_back(&loop);
+            planes[k].centers.push_back(centralPoint(loop));
+        }
+    ASSERT_EQ(loops[0].size(), 1u);
+    ASSERT_EQ(loops[2].size(), 2u);
+    const std::vector<SlabPiece> band = connectThroughSlab(volume, plan, planes[0], planes[1]);
+    ASSERT_EQ(band.size(), 1u);
+    EXPECT_EQ(band[0].kind, EventKind::Band);
+    const std::vector<SlabPiece> fork = connectThroughSlab(volume, plan, planes[1], planes[2]);
+    ASSERT_EQ(fork.size(), 1u);
+    EXPECT_EQ(fork[0].kind, EventKind::Fork);
+    EXPECT_EQ(fork[0].below, std::vector<int>{0});
+    EXPECT_EQ(fork[0].above, (std::vector<int>{0, 1}));
+    EXPECT_EQ(fork[0].euler(), -1);
+    // Two tubes side by side are two bands, never one piece.
+    const Volume& two = test::cachedSample("two-tubes");
+    const SlicePlan twoPlan = planSlices(two, SliceOptions{});
+    std::vector<BoundaryLoop> a = traceBoundaries(SlicePlane(two, twoPlan, 60.0));
+    std::vector<BoundaryLoop> b = traceBoundaries(SlicePlane(two, twoPlan, 62.0));
+    PlaneLoops below{60.0, {&a[0], &a[1]}, {centralPoint(a[0]), centralPoint(a[1])}, {}};
+    PlaneLoops above{62.0, {&b[0], &b[1]}, {centralPoint(b[0]), centralPoint(b[1])}, {}};
+    const std::vector<SlabPiece> pieces = connectThroughSlab(two, twoPlan, below, above);
+    ASSERT_EQ(pieces.size(), 2u);
+    for (const SlabPiece& piece : pieces) EXPECT_EQ(piece.kind, EventKind::Band);
+}
+
+TEST(Graph, TwistingCStaysOneTube)
+{
+    // A C-shaped section (a 270-degree arc of radius 12, 5 thick) turning 15 degrees per voxel
+    // along z: its centroid lies in the gap, its central point on the arc, and from one slice to
+    // the next (30 degrees, 6.3 voxels along the arc) the sections overlap in part only, and
+    // their ends change. The slab joins them: one tube, no events, the isosurface's topology (a
+    // sphere). (The old tiler's main path failed on these contours with an internal error.) The in-plane distance changes up to 14.5 * pi / 12 = 3.8
+    // times faster along z than a distance may, so it is divided by that bound (the zero set is
+    // the same; the level set's band stays valid). Its geometry is a known gap (README): the
+    // central points, tied all along the arc, jump across the C between slices, and the band
+    // then crosses the gap.
+    const samples::DistanceFunction c = [](const glm::dvec3& p) {
+        const double turn = (p.z - 32.0) * kPi / 12.0;
+        const glm::dvec2 q(p.x - 32.0, p.y - 32.0);
+        const double angle = std::atan2(q.y, q.x) - turn;
+        const double wrapped = std::remainder(angle, 2.0 * kPi); // (-pi, pi]: the gap is around 0
+        const double gapHalf = kPi / 4.0;
+        double inPlane;
+        if (std::abs(wrapped) > gapHalf) {
+            inPlane = std::abs(glm::length(q) - 12.0) - 2.5;
+        } else {
+            // Nearest arc end: the ends at angles turn +- gapHalf, radius 12.
+            double best = 1e9;
+            for (double end : {turn + gapHalf, turn - gapHalf}) {
+                const glm::dvec2 e(12.0 * std::cos(end), 12.0 * std::sin(end));
+                best = std::min(best, glm::length(q - e) - 2.5);
+            }
+            inPlane = best;
+        }
+        const double lipschitz = std::sqrt(1.0 + std::pow(14.5 * kPi / 12.0, 2.0));
+        inPlane /= lipschitz;
+        const double along = (std::abs(p.z - 32.0) - 16.0) / lipschitz;
+        return std::max(inPlane, along) > 0.0 ? glm::length(glm::dvec2(std::max(inPlane, 0.0), std::max(along, 0.0)))
+                                               : std::max(inPlane, along);
+    };
+    const Volume volume = samples::levelSetFromDistance(c, {64, 64, 64}, 1.0, "twisting C");
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    EXPECT_EQ(reconstruction.stats().tubes, 1);
+    EXPECT_EQ(reconstruction.stats().forks + reconstruction.stats().merges, 0);
+    const Topology t = checkTopology(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(reference.euler, 2);
+    EXPECT_EQ(t.euler, reference.euler);
+    EXPECT_EQ(t.components, reference.components);
+}
+
+TEST(Graph, JunctionsDoNotDependOnTheThreads)
+{
+    // Junctions are tiled after the parallel bands; the mesh must be the same for any threads.
+    for (const char* name : {"ybranch", "ubend"}) {
+        SCOPED_TRACE(name);
+        MeshOptions one, two;
+        one.threads = 1;
+        two.threads = 2;
+        const Reconstruction a(test::cachedSample(name), one), b(test::cachedSample(name), two);
+        for (int level = 0; level < a.levelCount(); ++level) {
+            const TriangleMesh ma = a.buildLevel(level).mesh, mb = b.buildLevel(level).mesh;
+            EXPECT_TRUE(ma.vertices == mb.vertices && ma.triangles == mb.triangles) << "level " << level;
+        }
+    }
+}
+
+// Each phantom's expected numbers are its own (samples/phantoms.cpp derives them, and
+// Samples.KnownTopologyMatchesTheIsosurface checks them against volumeToMesh).
+TEST(Graph, YBranch) { expectIsosurfaceTopology("ybranch"); }
+TEST(Graph, UBend) { expectIsosurfaceTopology("ubend"); }
+TEST(Graph, XCrossFusesThenParts) { expectIsosurfaceTopology("xcross"); }
+TEST(Graph, TorusLyingFlat) { expectIsosurfaceTopology("torus-flat"); }
+TEST(Graph, TorusStanding) { expectIsosurfaceTopology("torus-standing"); }
+TEST(Graph, ClosedHollowTank) { expectIsosurfaceTopology("tank", 1); }
+TEST(Graph, SerpentineAcrossTheSlices) { expectIsosurfaceTopology("serpentine"); }
+TEST(Graph, ObliqueThinVessel) { expectIsosurfaceTopology("oblique"); }
+TEST(Graph, TwoTubesStayTwo) { expectIsosurfaceTopology("two-tubes"); }
+TEST(Graph, HollowPipe) { expectIsosurfaceTopology("hollow"); }
+
+// Known gaps (registered with WILL_FAIL in CMakeLists.txt; see the README): strict targets that
+// fail today.
+// - A T whose side branch lies in a slicing plane: the right topology, but the arm grows out of
+//   the main contour within one slab, and the band across it is 2.7 voxels off.
+TEST(Graph, DISABLED_KnownGapTBranchInTheSlicingPlane) { expectIsosurfaceTopology("tbranch"); }
+// - The rod's closed channel is a void whose ends are closed flat (holes get no apex), 2 voxels
+//   from its rounded ends.
+TEST(Graph, DISABLED_KnownGapLumenClosedInsideARod) { expectIsosurfaceTopology("lumen-rod", 1); }
+// - Slab pieces of other patterns (2:2 where two saddles fall in one half-voxel slab, 1:2 of a
+//   wall and a hole) are capped contour by contour: wrong Euler characteristic.
+TEST(Graph, DISABLED_KnownGapTrifurcation) { expectIsosurfaceTopology("trifurcation"); }
+TEST(Graph, DISABLED_KnownGapVesselTree) { expectIsosurfaceTopology("tree"); }
+TEST(Graph, DISABLED_KnownGapTwoFusedTori) { expectIsosurfaceTopology("two-tori"); }
+TEST(Graph, DISABLED_KnownGapHollowY) { expectIsosurfaceTopology("hollow-y"); }
