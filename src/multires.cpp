@@ -41,20 +41,23 @@ void forEachIndex(int threads, std::size_t count, const Body& body)
 }
 
 // Where the tube really ends, beyond its last slice: march from the central point along the
-// slicing axis until the field turns outside, then bisect. Cone-shaped caps then follow rounded
-// ends instead of cutting them flat at the last slice.
-bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex)
+// slicing axis until the field leaves the tube's region, then bisect. Cone-shaped caps then
+// follow rounded ends instead of cutting them flat at the last slice. A hole's region is the
+// outside (`sign` -1): a void's channel ends where the solid begins again.
+bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex,
+              double sign = 1.0)
 {
     constexpr double kStep = 0.25;
     const double w0 = plane.w();
+    auto inRegion = [&](double w) { return sign * plane.sampleAt(center, w) < 0.0; };
     double inT = 0.0;
-    if (plane.sampleAt(center, w0) >= 0.0) return false;
+    if (!inRegion(w0)) return false;
     for (double t = kStep; t <= reach + 1e-9; t += kStep) {
-        if (plane.sampleAt(center, w0 + direction * t) >= 0.0) {
+        if (!inRegion(w0 + direction * t)) {
             double lo = inT, hi = t;
             for (int i = 0; i < 40; ++i) {
                 const double mid = 0.5 * (lo + hi);
-                (plane.sampleAt(center, w0 + direction * mid) < 0.0 ? lo : hi) = mid;
+                (inRegion(w0 + direction * mid) ? lo : hi) = mid;
             }
             wApex = w0 + direction * 0.5 * (lo + hi);
             return true;
@@ -392,6 +395,12 @@ void Reconstruction::resolveEvents()
                 ++mStats.unresolvedJunctions;
             }
             for (int l : piece.above) startTube(slab.above, l);
+            if (piece.kind == EventKind::Unresolved || piece.kind == EventKind::Fork || piece.kind == EventKind::Merge) {
+                Skeleton::Unresolved u{mPositions[slab.below], mPositions[slab.above], 0, 0, 0, 0};
+                for (int l : piece.below) ++(mLoops[slab.below][l].loop.hole() ? u.holesBelow : u.wallsBelow);
+                for (int l : piece.above) ++(mLoops[slab.above][l].loop.hole() ? u.holesAbove : u.wallsAbove);
+                mUnresolved.push_back(u);
+            }
             mStats.starts += piece.kind == EventKind::Start ? 1 : 0;
             mStats.ends += piece.kind == EventKind::End ? 1 : 0;
             mStats.rims += piece.kind == EventKind::Rim ? 1 : 0;
@@ -482,7 +491,8 @@ void Reconstruction::closeEnds()
             const SliceLoop& member = mLoops[s][l];
             const SlicePlane plane(mVolume, mPlan, mPositions[s]);
             double wApex = plane.w();
-            end.hasApex = !tube.hole && findApex(plane, member.view.center, direction, reach, wApex);
+            const double sign = tube.hole ? -1.0 : 1.0;
+            end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
             end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
             const double wEnd = wApex - direction * kEndInset;
             if (!end.hasApex || direction * (wEnd - plane.w()) < 0.25) continue;
@@ -492,7 +502,7 @@ void Reconstruction::closeEnds()
                 static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
                 [&](int k) {
                     const BoundaryLoop& candidate = loops[k];
-                    return !candidate.hole() && std::abs(candidate.area) >= mOptions.minContourArea &&
+                    return candidate.hole() == tube.hole && std::abs(candidate.area) >= mOptions.minContourArea &&
                            (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid));
                 });
             if (best < 0) continue;
@@ -508,7 +518,7 @@ void Reconstruction::closeEnds()
             else tube.members.insert(tube.members.begin(), added);
             ++mStats.endContours;
             double wAgain = wEnd;
-            end.hasApex = findApex(endPlane, center, direction, 2.0 * kEndInset + 1.0, wAgain);
+            end.hasApex = findApex(endPlane, center, direction, 2.0 * kEndInset + 1.0, wAgain, sign);
             end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
         }
     }
@@ -747,6 +757,7 @@ Skeleton Reconstruction::skeleton() const
         for (const auto& [s, l] : junction.many) j.partners.push_back(segmentOf[s][l]);
         skeleton.junctions.push_back(j);
     }
+    skeleton.unresolved = mUnresolved;
     return skeleton;
 }
 

@@ -65,7 +65,11 @@ json graphJson(const pipetile::Reconstruction& reconstruction)
     for (const pipetile::Skeleton::Junction& j : skeleton.junctions)
         junctions.push_back({{"kind", pipetile::toString(j.kind)}, {"w", j.w}, {"crotch_w", j.crotchW},
                              {"single", j.single}, {"partners", j.partners}});
-    return {{"segments", segments}, {"junctions", junctions}};
+    json unresolved = json::array();
+    for (const pipetile::Skeleton::Unresolved& u : skeleton.unresolved)
+        unresolved.push_back({{"w_below", u.wBelow}, {"w_above", u.wAbove}, {"walls_below", u.wallsBelow},
+                              {"holes_below", u.holesBelow}, {"walls_above", u.wallsAbove}, {"holes_above", u.holesAbove}});
+    return {{"segments", segments}, {"junctions", junctions}, {"unresolved", unresolved}};
 }
 
 json validationJson(const pipetile::Validation& v)

@@ -125,8 +125,14 @@ struct Skeleton {
         int single = -1;             // segment ids
         std::vector<int> partners;
     };
+    /// A slab piece whose pattern no construction handles: its contours are capped one by one.
+    struct Unresolved {
+        double wBelow = 0.0, wAbove = 0.0;
+        int wallsBelow = 0, holesBelow = 0, wallsAbove = 0, holesAbove = 0;
+    };
     std::vector<Segment> segments;
     std::vector<Junction> junctions;
+    std::vector<Unresolved> unresolved;
 };
 
 /// Stateful: holds the slices' boundary loops and the tubes; builds any level on request.
@@ -231,6 +237,7 @@ private:
     std::vector<std::vector<SliceLoop>> mLoops; // per plane of mPositions
     std::vector<Tube> mTubes;
     std::vector<Junction> mJunctions;
+    std::vector<Skeleton::Unresolved> mUnresolved;
     ContourGraph mGraph;
     ReconstructionStats mStats;
 };
