@@ -118,8 +118,10 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
     if (a == 1 && b == 1) return oneKind ? EventKind::Band : EventKind::Unresolved;
     if (a == 0 && b == 1) return EventKind::Start;
     if (a == 1 && b == 0) return EventKind::End;
-    if (oneKind && a == 1 && b >= 2) return EventKind::Fork;
-    if (oneKind && a >= 2 && b == 1) return EventKind::Merge;
+    // One contour against several, of one kind (a fork of walls or of holes) or of both (a wall
+    // and the hole inside it against one wall: a ring breaking open, a lumen opening into a C).
+    if (a == 1 && b >= 2) return EventKind::Fork;
+    if (a >= 2 && b == 1) return EventKind::Merge;
     if ((a == 2 && b == 0 && holesBelow == 1) || (a == 0 && b == 2 && holesAbove == 1)) return EventKind::Rim;
     return EventKind::Unresolved;
 }
@@ -230,18 +232,24 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
 {
     ContourGraph graph;
     const int original = static_cast<int>(planes.size());
-    auto needsPlanes = [&](int below, int above, const std::vector<SlabPiece>& pieces) {
-        return std::any_of(pieces.begin(), pieces.end(), [&](const SlabPiece& p) {
-            return p.kind == EventKind::Fork || p.kind == EventKind::Merge || p.kind == EventKind::Unresolved ||
-                   (p.kind == EventKind::Band &&
-                    shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange);
-        });
+    // How thin the slab must get: an unresolved piece (two saddles in one slab, say) is halved
+    // down to an eighth of minThickness, where events at different heights fall apart; a fork,
+    // merge or fast-changing band down to minThickness; anything else is left as it is (0).
+    auto thickness = [&](int below, int above, const std::vector<SlabPiece>& pieces) {
+        double target = 0.0;
+        for (const SlabPiece& p : pieces) {
+            if (p.kind == EventKind::Unresolved) return minThickness / 8.0;
+            if (p.kind == EventKind::Fork || p.kind == EventKind::Merge ||
+                (p.kind == EventKind::Band && shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange))
+                target = minThickness;
+        }
+        return target;
     };
-    // Halves a slab while it holds a fork, merge or unresolved piece and is thicker than
-    // minThickness; appends the slabs in order of w.
+    // Halves a slab while it is thicker than its pieces need; appends the slabs in order of w.
     const auto refine = [&](const auto& self, int below, int above, std::vector<SlabPiece> pieces) -> void {
         const double wBelow = planes[below].w, wAbove = planes[above].w;
-        if (wAbove - wBelow <= minThickness || !needsPlanes(below, above, pieces)) {
+        const double needed = thickness(below, above, pieces);
+        if (needed == 0.0 || wAbove - wBelow <= needed) {
             graph.slabs.push_back({below, above, std::move(pieces)});
             return;
         }

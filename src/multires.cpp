@@ -440,7 +440,28 @@ bool Reconstruction::splitJunction(Junction& junction) const
         if (runs.empty() || runs.back().owner != owner[p]) runs.push_back({p, 0, owner[p]});
         ++runs.back().length;
     }
-    while (static_cast<int>(runs.size()) > n) {
+    // Two ways to close the arcs, both with every partner owning arcs: each partner one arc (a
+    // fork: the arcs' chords meet at a hub), or one partner several, each of the others one, in
+    // turn (a C with gaps against a wall and the holes it will enclose: each gap's chord closes
+    // one arc, and joins the several's arcs into one loop).
+    auto arcsPerOwner = [&] {
+        std::vector<int> count(n, 0);
+        for (const Run& r : runs) ++count[r.owner];
+        return count;
+    };
+    auto valid = [&] {
+        const std::vector<int> count = arcsPerOwner();
+        if (std::count(count.begin(), count.end(), 1) == n) return true;
+        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
+        if (count[several] < 2 || count[several] != n - 1 || std::count(count.begin(), count.end(), 1) != n - 1)
+            return false;
+        for (std::size_t r = 0; r < runs.size(); ++r) // the several's arcs and the others' alternate
+            if ((runs[r].owner == several) == (runs[(r + 1) % runs.size()].owner == several)) return false;
+        return true;
+    };
+    // Merge the shortest run into its neighbours (a few points owned by a third partner across a
+    // narrow gap, say) until the arcs close one of these ways.
+    while (!valid() && runs.size() > 2) {
         std::size_t shortest = 0;
         for (std::size_t r = 1; r < runs.size(); ++r)
             if (runs[r].length < runs[shortest].length) shortest = r;
@@ -454,22 +475,32 @@ bool Reconstruction::splitJunction(Junction& junction) const
             runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(shortest));
         }
     }
-    std::vector<bool> owned(n, false);
-    for (const Run& r : runs) owned[r.owner] = true;
-    if (static_cast<int>(runs.size()) != n || std::count(owned.begin(), owned.end(), true) != n) return false;
+    if (!valid()) return false;
+    const std::vector<int> count = arcsPerOwner();
+    junction.hubbed = std::count(count.begin(), count.end(), 1) == n;
     std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.start < b.start; });
     junction.hub = glm::dvec2(0.0);
     for (const Run& r : runs) {
         junction.cuts.push_back(r.start);
         junction.arcOwner.push_back(r.owner);
-        junction.hub += polygon[r.start] / static_cast<double>(n);
+        junction.hub += polygon[r.start] / static_cast<double>(runs.size());
     }
-    // The hub lies inside, just short of the saddle: toward the partners' plane the field turns
-    // outside at the crotch itself, so the hub moves there (and stays put if it does not).
+    if (!junction.hubbed) {
+        // A closed arc needs a point between its cuts at every level, whatever its crossings:
+        // its middle polygon point (after its first cut on the ring, even where they coincide).
+        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
+        for (std::size_t a = 0; a < runs.size(); ++a)
+            if (runs[a].owner != several) junction.mids.push_back((runs[a].start + runs[a].length / 2) % m);
+        return true;
+    }
+    // The hub lies just short of the saddle: inside across a neck, outside across the gap of a C
+    // that closes. Toward the partners' plane the field changes sides at the saddle itself, so
+    // the hub moves there (and stays put if it does not get there).
     const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
     const SlicePlane plane(mVolume, mPlan, w);
     junction.hubW = w;
-    findApex(plane, junction.hub, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), junction.hubW);
+    const double side = plane.sampleAt(junction.hub, w) < 0.0 ? 1.0 : -1.0;
+    findApex(plane, junction.hub, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), junction.hubW, side);
     return true;
 }
 
@@ -928,12 +959,14 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     // polygon, then the hub where the chords from the cuts meet, inside the contour.
     struct Extra { int point; std::uint32_t id; };
     std::vector<std::vector<Extra>> extras(members.size()); // per member
-    std::vector<std::uint32_t> hubOf(mJunctions.size()); // the junction's cut vertices precede it
+    std::vector<std::uint32_t> firstCutOf(mJunctions.size()), hubOf(mJunctions.size()); // hub: after the cuts
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
         const int single = memberOf[junction.single.first][junction.single.second];
+        firstCutOf[j] = vertexCount;
         for (int cut : junction.cuts) extras[single].push_back({cut, vertexCount++});
-        hubOf[j] = vertexCount++;
+        for (int mid : junction.mids) extras[single].push_back({mid, vertexCount++});
+        if (junction.hubbed) hubOf[j] = vertexCount++;
     }
     mesh.vertices.resize(vertexCount);
     auto toWorld = [&](const glm::dvec2& uv, int plane) {
@@ -949,7 +982,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         for (const Extra& e : extras[i]) mesh.vertices[e.id] = toWorld(mLoops[m.slice][m.loop].view.polygon[e.point], m.slice);
     });
     for (std::size_t j = 0; j < mJunctions.size(); ++j)
-        mesh.vertices[hubOf[j]] = mVolume.indexToWorld(planeToIndex(mPlan.axis, mJunctions[j].hub, mJunctions[j].hubW));
+        if (mJunctions[j].hubbed)
+            mesh.vertices[hubOf[j]] = mVolume.indexToWorld(planeToIndex(mPlan.axis, mJunctions[j].hub, mJunctions[j].hubW));
 
     // A contour's ring: its crossings in walk order with its junction vertices merged in by their
     // polygon point (integers: segment indices); after[k] lists those between crossings k and k+1.
@@ -973,7 +1007,9 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
         std::vector<std::pair<long long, const Extra*>> cuts;
         for (const Extra& e : extras[i]) cuts.push_back({key(e.point) == 0 ? segments : key(e.point), &e});
-        std::sort(cuts.begin(), cuts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        std::sort(cuts.begin(), cuts.end(), [](const auto& a, const auto& b) {
+            return a.first != b.first ? a.first < b.first : a.second->id < b.second->id; // a cut before its arc's middle
+        });
         for (const auto& [k, e] : cuts) {
             const std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), k) - crossingKey.begin();
             ring.after[before - 1].push_back(e->id);
@@ -1132,23 +1168,33 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const int single = memberOf[junction.single.first][junction.single.second];
         const Ring ring = ringOf(single);
         const bool fork = junction.kind == EventKind::Fork;
-        const bool flip = mLoops[junction.single.first][junction.single.second].loop.hole() != mirrored;
+        const bool singleHole = mLoops[junction.single.first][junction.single.second].loop.hole();
         const std::size_t n = junction.cuts.size(), size = ring.ids.size();
         auto positionOf = [&](std::size_t cut) { // of this junction's cut vertex in the ring
-            const std::uint32_t id = hubOf[j] - static_cast<std::uint32_t>(n - cut);
+            const std::uint32_t id = firstCutOf[j] + static_cast<std::uint32_t>(cut);
             return static_cast<std::size_t>(std::find(ring.ids.begin(), ring.ids.end(), id) - ring.ids.begin());
         };
-        for (std::size_t a = 0; a < n; ++a) {
-            std::vector<std::uint32_t> part;
-            const std::size_t from = positionOf(a), to = positionOf((a + 1) % n);
-            for (std::size_t p = from;; p = (p + 1) % size) {
+        auto appendArc = [&](std::vector<std::uint32_t>& part, std::size_t a) { // cut a to cut a + 1
+            for (std::size_t p = positionOf(a), to = positionOf((a + 1) % n);; p = (p + 1) % size) {
                 part.push_back(ring.ids[p]);
                 if (p == to) break;
             }
-            part.push_back(hubOf[j]);
-
-            const auto [ps, pl] = junction.many[junction.arcOwner[a]];
+        };
+        for (std::size_t k = 0; k < junction.many.size(); ++k) {
+            // Partner k's loop: its arcs in walk order, each closed through the hub, or joined to
+            // the next by the chord across the arc between them (which closes that arc).
+            std::vector<std::uint32_t> part;
+            for (std::size_t a = 0; a < n; ++a)
+                if (junction.arcOwner[a] == static_cast<int>(k)) appendArc(part, a);
+            if (junction.hubbed) part.push_back(hubOf[j]);
+            const auto [ps, pl] = junction.many[k];
             const std::vector<std::uint32_t> partner = ringOf(memberOf[ps][pl]).ids;
+            // An arc of a wall that goes to a hole is the wall's side of the hole it bounds with
+            // the chord: clockwise, where the hole's ring is counterclockwise (and the other way
+            // round); the band between them faces the hole, as a hole tube's bands do.
+            const bool partnerHole = mLoops[ps][pl].loop.hole();
+            if (partnerHole != singleHole) std::reverse(part.begin(), part.end());
+            const bool flip = partnerHole != mirrored;
             const std::vector<std::uint32_t>& lower = fork ? part : partner;
             const std::vector<std::uint32_t>& upper = fork ? partner : part;
             std::vector<glm::dvec3> lowerPoints, upperPoints;

@@ -30,8 +30,9 @@ enum class EventKind {
     Band,       // 1:1, the paper's band
     Start,      // 0:1, a tube begins (a minimum of the height on the surface): a cap
     End,        // 1:0, a tube ends (a maximum): a cap
-    Fork,       // 1:n of one kind (walls or holes), n >= 2: n - 1 saddles
-    Merge,      // n:1 of one kind, n >= 2: n - 1 saddles
+    Fork,       // 1:n, n >= 2: n - 1 saddles (walls or holes; or a wall and its hole against one
+                // wall: a lumen opening into a C, a ring breaking open)
+    Merge,      // n:1, n >= 2: n - 1 saddles
     Rim,        // a wall and the hole inside it begin or end together (0:2, 2:0): an annulus
     Unresolved, // any other pattern; its loops are closed by caps of their own (wrong topology)
 };

@@ -209,6 +209,12 @@ private:
         std::vector<int> cuts;                     // polygon point indices on single's view, in
                                                    // walk order; arc i runs from cuts[i] to cuts[i+1]
         std::vector<int> arcOwner;
+        std::vector<int> mids;                     // without a hub: the middle polygon point of each
+                                                   // arc a chord closes, a vertex of every level
+        bool hubbed = true;                        // every partner owns one arc: the arcs close
+                                                   // through the hub; else one partner owns every
+                                                   // other arc, and chords across the others close
+                                                   // them and join its arcs
         glm::dvec2 hub{0.0};                       // where the chords from the cuts meet: their
         double hubW = 0.0;                         // mean, moved along the axis toward the partners
                                                    // onto the surface (the crotch), if it gets there
