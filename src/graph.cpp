@@ -122,7 +122,8 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
     // and the hole inside it against one wall: a ring breaking open, a lumen opening into a C).
     if (a == 1 && b >= 2) return EventKind::Fork;
     if (a >= 2 && b == 1) return EventKind::Merge;
-    if ((a == 2 && b == 0 && holesBelow == 1) || (a == 0 && b == 2 && holesAbove == 1)) return EventKind::Rim;
+    // A wall and the holes inside it, ending (or beginning) together: a face with holes.
+    if ((a >= 2 && b == 0 && holesBelow == a - 1) || (a == 0 && b >= 2 && holesAbove == b - 1)) return EventKind::Rim;
     return EventKind::Unresolved;
 }
 
@@ -233,15 +234,18 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     ContourGraph graph;
     const int original = static_cast<int>(planes.size());
     // How thin the slab must get: an unresolved piece (two saddles in one slab, say) is halved
-    // down to an eighth of minThickness, where events at different heights fall apart; a fork,
-    // merge or fast-changing band down to minThickness; anything else is left as it is (0).
+    // down to an eighth of minThickness, where events at different heights fall apart; a wall
+    // ending with several holes to a quarter; a fork, merge or fast-changing band down to
+    // minThickness; anything else is left as it is (0).
     auto thickness = [&](int below, int above, const std::vector<SlabPiece>& pieces) {
         double target = 0.0;
         for (const SlabPiece& p : pieces) {
             if (p.kind == EventKind::Unresolved) return minThickness / 8.0;
+            // A face with several holes is flat: it must lie where the wall ends.
+            if (p.kind == EventKind::Rim && p.below.size() + p.above.size() > 2) target = minThickness / 4.0;
             if (p.kind == EventKind::Fork || p.kind == EventKind::Merge ||
                 (p.kind == EventKind::Band && shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange))
-                target = minThickness;
+                target = target == 0.0 ? minThickness : std::min(target, minThickness);
         }
         return target;
     };

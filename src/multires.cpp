@@ -22,6 +22,8 @@ namespace pipetile {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+// Slabs holding an event are halved until at most this thick, in voxels (correspond()).
+constexpr double kEventThickness = 0.5;
 constexpr double kPi = 3.14159265358979323846;
 
 double secondsSince(Clock::time_point start)
@@ -320,7 +322,7 @@ void Reconstruction::correspond()
     // this keeps them within 0.75 voxel where the shape changes smoothly, and splits the slab
     // where it does not (the aorta's end: 1.19 voxels without). Tubes that lean and turn (the
     // helix: ellipses turning by up to 3 pixels between slices) follow their chords and get none.
-    constexpr double kEventThickness = 0.5, kShapeChange = 3.0;
+    constexpr double kShapeChange = 3.0;
     std::vector<PlaneLoops> planes(mLoops.size());
     auto describe = [&](std::size_t s) {
         planes[s].w = mPositions[s];
@@ -366,8 +368,30 @@ void Reconstruction::resolveEvents()
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
     mStats.eventEuler += static_cast<long long>(mLoops[first].size());
+    std::vector<bool> dropped; // tubes of momentary contours (below)
     for (const ContourGraph::Slab& slab : mGraph.slabs) {
-        for (const SlabPiece& piece : slab.pieces) {
+        for (SlabPiece piece : slab.pieces) {
+            // Contours that begin in the plane below a thin unresolved piece and join there (a
+            // rounded rim's bottom appearing as a few arcs that close into a ring an eighth of
+            // a voxel later) are momentary: dropped, the piece is what remains above.
+            const bool fresh = !piece.below.empty() && std::all_of(piece.below.begin(), piece.below.end(), [&](int l) {
+                const Tube& t = mTubes[tubeOf[slab.below][l]];
+                return t.members.size() == 1 && t.bottom.junction < 0;
+            });
+            if (piece.kind == EventKind::Unresolved && fresh &&
+                mPositions[slab.above] - mPositions[slab.below] <= kEventThickness / 8.0 + 1e-9) {
+                dropped.resize(mTubes.size(), false);
+                for (int l : piece.below) dropped[tubeOf[slab.below][l]] = true;
+                mStats.starts -= static_cast<int>(piece.below.size());
+                mStats.eventEuler -= static_cast<long long>(piece.below.size());
+                mStats.droppedMomentary += static_cast<int>(piece.below.size());
+                piece.below.clear();
+                const int holes = static_cast<int>(std::count_if(piece.above.begin(), piece.above.end(),
+                                                                  [&](int l) { return mLoops[slab.above][l].loop.hole(); }));
+                piece.kind = piece.above.size() == 1 ? EventKind::Start
+                             : holes == static_cast<int>(piece.above.size()) - 1 ? EventKind::Rim
+                                                                                : EventKind::Unresolved;
+            }
             mStats.eventEuler += piece.euler();
             if (piece.kind == EventKind::Band) {
                 const int t = tubeOf[slab.below][piece.below[0]];
@@ -394,8 +418,29 @@ void Reconstruction::resolveEvents()
                 }
                 ++mStats.unresolvedJunctions;
             }
+            if (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2) {
+                // A wall with several holes: its polygon is split into one arc per hole, closed
+                // through a hub in the plane, and each arc tiled to its hole: a face with holes.
+                const bool top = piece.above.empty();
+                const int s = top ? slab.below : slab.above;
+                const std::vector<int>& loops = top ? piece.below : piece.above;
+                Junction junction;
+                junction.kind = EventKind::Rim;
+                junction.top = top;
+                for (int l : loops) (mLoops[s][l].loop.hole() ? junction.many.emplace_back(s, l) : junction.single = {s, l});
+                if (splitJunction(junction)) {
+                    const int id = static_cast<int>(mJunctions.size());
+                    for (int l : loops) (top ? mTubes[tubeOf[s][l]].top : mTubes[startTube(s, l)].bottom).junction = id;
+                    ++mStats.rims;
+                    mStats.saddles += static_cast<int>(junction.many.size()) - 1;
+                    mJunctions.push_back(std::move(junction));
+                    continue;
+                }
+                ++mStats.unresolvedJunctions;
+            }
             for (int l : piece.above) startTube(slab.above, l);
-            if (piece.kind == EventKind::Unresolved || piece.kind == EventKind::Fork || piece.kind == EventKind::Merge) {
+            if (piece.kind == EventKind::Unresolved || piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
+                (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2)) {
                 Skeleton::Unresolved u{mPositions[slab.below], mPositions[slab.above], 0, 0, 0, 0};
                 for (int l : piece.below) ++(mLoops[slab.below][l].loop.hole() ? u.holesBelow : u.wallsBelow);
                 for (int l : piece.above) ++(mLoops[slab.above][l].loop.hole() ? u.holesAbove : u.wallsAbove);
@@ -409,6 +454,11 @@ void Reconstruction::resolveEvents()
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
     mStats.eventEuler += static_cast<long long>(mLoops[last].size());
+    dropped.resize(mTubes.size(), false);
+    std::size_t kept = 0;
+    for (std::size_t t = 0; t < mTubes.size(); ++t)
+        if (!dropped[t] && kept++ != t) mTubes[kept - 1] = std::move(mTubes[t]);
+    mTubes.resize(kept);
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const
@@ -1193,10 +1243,12 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             // the chord: clockwise, where the hole's ring is counterclockwise (and the other way
             // round); the band between them faces the hole, as a hole tube's bands do.
             const bool partnerHole = mLoops[ps][pl].loop.hole();
-            if (partnerHole != singleHole) std::reverse(part.begin(), part.end());
-            const bool flip = partnerHole != mirrored;
-            const std::vector<std::uint32_t>& lower = fork ? part : partner;
-            const std::vector<std::uint32_t>& upper = fork ? partner : part;
+            const bool rim = junction.kind == EventKind::Rim;
+            if (partnerHole != singleHole && !rim) std::reverse(part.begin(), part.end());
+            // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
+            const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
+            const std::vector<std::uint32_t>& lower = fork || rim ? part : partner;
+            const std::vector<std::uint32_t>& upper = fork || rim ? partner : part;
             std::vector<glm::dvec3> lowerPoints, upperPoints;
             for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
             for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);

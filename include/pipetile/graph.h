@@ -33,7 +33,8 @@ enum class EventKind {
     Fork,       // 1:n, n >= 2: n - 1 saddles (walls or holes; or a wall and its hole against one
                 // wall: a lumen opening into a C, a ring breaking open)
     Merge,      // n:1, n >= 2: n - 1 saddles
-    Rim,        // a wall and the hole inside it begin or end together (0:2, 2:0): an annulus
+    Rim,        // a wall and the holes inside it begin or end together (0:k+1, k+1:0): an annulus
+                // for one hole, a face with k holes (k - 1 saddles) for more
     Unresolved, // any other pattern; its loops are closed by caps of their own (wrong topology)
 };
 

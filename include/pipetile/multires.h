@@ -80,6 +80,8 @@ struct ReconstructionStats {
     int droppedSmall = 0;          // cross-sections below minContourArea
     int droppedUnwound = 0;        // loops that do not wind around their central point
     int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
+    int droppedMomentary = 0;      // contours that begin and join others within an eighth of a
+                                   // voxel (a rounded rim's bottom appearing as arcs)
     int endContours = 0;           // contours added a quarter voxel inside where a tube ends
     int tubes = 0;                 // segments: chains of contours joined one to one (bands), each
                                    // closed at either end by a cap, a rim or a junction
@@ -203,7 +205,10 @@ private:
     /// A fork or merge: one contour (`single`) split into arcs by cut points on its polygon, one
     /// arc per contour on the other side (`many`), each arc tiled to its partner. Decided once.
     struct Junction {
-        EventKind kind = EventKind::Fork;          // Fork: `single` lies below `many`; Merge: above
+        EventKind kind = EventKind::Fork;          // Fork: `single` lies below `many`; Merge: above;
+                                                   // Rim: a wall and its holes in one plane, where
+                                                   // their tubes begin (bottom) or end (top)
+        bool top = false;                          // a Rim at the tubes' top ends
         std::pair<int, int> single;                // (plane, loop)
         std::vector<std::pair<int, int>> many;     // partner of arc i: many[arcOwner[i]]
         std::vector<int> cuts;                     // polygon point indices on single's view, in
