@@ -368,30 +368,8 @@ void Reconstruction::resolveEvents()
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
     mStats.eventEuler += static_cast<long long>(mLoops[first].size());
-    std::vector<bool> dropped; // tubes of momentary contours (below)
     for (const ContourGraph::Slab& slab : mGraph.slabs) {
-        for (SlabPiece piece : slab.pieces) {
-            // Contours that begin in the plane below a thin unresolved piece and join there (a
-            // rounded rim's bottom appearing as a few arcs that close into a ring an eighth of
-            // a voxel later) are momentary: dropped, the piece is what remains above.
-            const bool fresh = !piece.below.empty() && std::all_of(piece.below.begin(), piece.below.end(), [&](int l) {
-                const Tube& t = mTubes[tubeOf[slab.below][l]];
-                return t.members.size() == 1 && t.bottom.junction < 0;
-            });
-            if (piece.kind == EventKind::Unresolved && fresh &&
-                mPositions[slab.above] - mPositions[slab.below] <= kEventThickness / 8.0 + 1e-9) {
-                dropped.resize(mTubes.size(), false);
-                for (int l : piece.below) dropped[tubeOf[slab.below][l]] = true;
-                mStats.starts -= static_cast<int>(piece.below.size());
-                mStats.eventEuler -= static_cast<long long>(piece.below.size());
-                mStats.droppedMomentary += static_cast<int>(piece.below.size());
-                piece.below.clear();
-                const int holes = static_cast<int>(std::count_if(piece.above.begin(), piece.above.end(),
-                                                                  [&](int l) { return mLoops[slab.above][l].loop.hole(); }));
-                piece.kind = piece.above.size() == 1 ? EventKind::Start
-                             : holes == static_cast<int>(piece.above.size()) - 1 ? EventKind::Rim
-                                                                                : EventKind::Unresolved;
-            }
+        for (const SlabPiece& piece : slab.pieces) {
             mStats.eventEuler += piece.euler();
             if (piece.kind == EventKind::Band) {
                 const int t = tubeOf[slab.below][piece.below[0]];
@@ -454,11 +432,6 @@ void Reconstruction::resolveEvents()
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
     mStats.eventEuler += static_cast<long long>(mLoops[last].size());
-    dropped.resize(mTubes.size(), false);
-    std::size_t kept = 0;
-    for (std::size_t t = 0; t < mTubes.size(); ++t)
-        if (!dropped[t] && kept++ != t) mTubes[kept - 1] = std::move(mTubes[t]);
-    mTubes.resize(kept);
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const

@@ -80,8 +80,6 @@ struct ReconstructionStats {
     int droppedSmall = 0;          // cross-sections below minContourArea
     int droppedUnwound = 0;        // loops that do not wind around their central point
     int droppedFlat = 0;           // lone contours with no apex either side: nothing to enclose
-    int droppedMomentary = 0;      // contours that begin and join others within an eighth of a
-                                   // voxel (a rounded rim's bottom appearing as arcs)
     int endContours = 0;           // contours added a quarter voxel inside where a tube ends
     int tubes = 0;                 // segments: chains of contours joined one to one (bands), each
                                    // closed at either end by a cap, a rim or a junction
