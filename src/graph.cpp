@@ -122,6 +122,10 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
     // and the hole inside it against one wall: a ring breaking open, a lumen opening into a C).
     if (a == 1 && b >= 2) return EventKind::Fork;
     if (a >= 2 && b == 1) return EventKind::Merge;
+    // A ring (a wall and the hole inside it) against several walls: it breaks open in several
+    // places at once, or arcs close into it.
+    if (a == 2 && holesBelow == 1 && b >= 2 && holesAbove == 0) return EventKind::Fork;
+    if (b == 2 && holesAbove == 1 && a >= 2 && holesBelow == 0) return EventKind::Merge;
     // A wall and the holes inside it, ending (or beginning) together: a face with holes.
     if ((a >= 2 && b == 0 && holesBelow == a - 1) || (a == 0 && b >= 2 && holesAbove == b - 1)) return EventKind::Rim;
     return EventKind::Unresolved;

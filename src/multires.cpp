@@ -216,6 +216,58 @@ std::vector<Triangle> withoutFullFans(const std::vector<Triangle>& strip, std::u
     return result;
 }
 
+// A run of polygon points owned by one partner, cyclically: points start .. start + length - 1.
+struct OwnerRun { int start, length, owner; };
+
+// Each point of a polygon goes to the partner whose polygon passes nearest (the planes share
+// (u, v)); near a saddle the partners are the polygon's lobes, so the owners form arcs. Empty if
+// one partner owns every point.
+std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon, const std::vector<const std::vector<glm::dvec2>*>& partners)
+{
+    const int m = static_cast<int>(polygon.size());
+    std::vector<int> owner(m, 0);
+    for (int i = 0; i < m; ++i) {
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < partners.size(); ++k)
+            for (const glm::dvec2& q : *partners[k]) {
+                const glm::dvec2 d = q - polygon[i];
+                const double distance2 = d.x * d.x + d.y * d.y;
+                if (distance2 < best) { best = distance2; owner[i] = static_cast<int>(k); }
+            }
+    }
+    std::vector<OwnerRun> runs;
+    int begin = 0;
+    while (begin < m && owner[begin] == owner[(begin + m - 1) % m]) ++begin;
+    if (begin == m) return runs;
+    for (int i = 0; i < m; ++i) {
+        const int p = (begin + i) % m;
+        if (runs.empty() || runs.back().owner != owner[p]) runs.push_back({p, 0, owner[p]});
+        ++runs.back().length;
+    }
+    return runs;
+}
+
+// Gives the shortest run to its neighbours (a few points owned by a third partner across a narrow
+// gap, say) until `done` holds or two runs are left.
+template <class Done>
+void mergeShortestRuns(std::vector<OwnerRun>& runs, const Done& done)
+{
+    while (runs.size() > 2 && !done(runs)) {
+        std::size_t shortest = 0;
+        for (std::size_t r = 1; r < runs.size(); ++r)
+            if (runs[r].length < runs[shortest].length) shortest = r;
+        const std::size_t previous = (shortest + runs.size() - 1) % runs.size(), next = (shortest + 1) % runs.size();
+        runs[previous].length += runs[shortest].length;
+        if (runs[next].owner == runs[previous].owner && next != previous) {
+            runs[previous].length += runs[next].length;
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::max(shortest, next)));
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::min(shortest, next)));
+        } else {
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(shortest));
+        }
+    }
+}
+
 } // namespace
 
 void checkMeshOptions(const MeshOptions& options)
@@ -379,18 +431,21 @@ void Reconstruction::resolveEvents()
             }
             if (piece.kind == EventKind::Fork || piece.kind == EventKind::Merge) {
                 const bool fork = piece.kind == EventKind::Fork;
+                const int s1 = fork ? slab.below : slab.above, s2 = fork ? slab.above : slab.below;
+                const std::vector<int>& ones = fork ? piece.below : piece.above;
                 Junction junction;
                 junction.kind = piece.kind;
-                junction.single = fork ? std::pair<int, int>{slab.below, piece.below[0]} : std::pair<int, int>{slab.above, piece.above[0]};
-                for (int l : fork ? piece.above : piece.below) junction.many.push_back({fork ? slab.above : slab.below, l});
+                for (int l : ones) (ones.size() == 2 && mLoops[s1][l].loop.hole() ? junction.inner : junction.single) = {s1, l};
+                for (int l : fork ? piece.above : piece.below) junction.many.push_back({s2, l});
                 if (splitJunction(junction)) {
                     const int id = static_cast<int>(mJunctions.size());
-                    for (const auto& [s, l] : fork ? std::vector<std::pair<int, int>>{junction.single} : junction.many)
-                        mTubes[tubeOf[s][l]].top.junction = id;
-                    for (const auto& [s, l] : fork ? junction.many : std::vector<std::pair<int, int>>{junction.single})
-                        mTubes[startTube(s, l)].bottom.junction = id;
+                    std::vector<std::pair<int, int>> lower = junction.many, upper = junction.many;
+                    (fork ? lower : upper).clear();
+                    for (int l : ones) (fork ? lower : upper).push_back({s1, l});
+                    for (const auto& [s, l] : lower) mTubes[tubeOf[s][l]].top.junction = id;
+                    for (const auto& [s, l] : upper) mTubes[startTube(s, l)].bottom.junction = id;
                     ++(fork ? mStats.forks : mStats.merges);
-                    mStats.saddles += static_cast<int>(junction.many.size()) - 1;
+                    mStats.saddles += static_cast<int>(junction.many.size() + ones.size()) - 2;
                     mJunctions.push_back(std::move(junction));
                     continue;
                 }
@@ -436,74 +491,65 @@ void Reconstruction::resolveEvents()
 
 bool Reconstruction::splitJunction(Junction& junction) const
 {
-    // Each point of the single contour's polygon goes to the partner whose polygon passes nearest
-    // (both planes share (u, v)); near the saddle the partners are the single contour's lobes, so
-    // the owners form one arc each, and the arcs meet at the neck.
+    std::vector<const std::vector<glm::dvec2>*> partners;
+    for (const auto& [s, l] : junction.many) partners.push_back(&mLoops[s][l].view.polygon);
+    const int n = static_cast<int>(partners.size());
     const std::vector<glm::dvec2>& polygon = mLoops[junction.single.first][junction.single.second].view.polygon;
-    const int m = static_cast<int>(polygon.size()), n = static_cast<int>(junction.many.size());
-    std::vector<int> owner(m, 0);
-    for (int i = 0; i < m; ++i) {
-        double best = std::numeric_limits<double>::infinity();
-        for (int k = 0; k < n; ++k)
-            for (const glm::dvec2& q : mLoops[junction.many[k].first][junction.many[k].second].view.polygon) {
-                const glm::dvec2 d = q - polygon[i];
-                const double distance2 = d.x * d.x + d.y * d.y;
-                if (distance2 < best) { best = distance2; owner[i] = k; }
-            }
-    }
-    // Runs of one owner, cyclically; the shortest run is given to its neighbours until every
-    // partner owns one run (a few points owned by a third partner across a narrow gap, say).
-    struct Run { int start, length, owner; };
-    std::vector<Run> runs;
-    int begin = 0;
-    while (begin < m && owner[begin] == owner[(begin + m - 1) % m]) ++begin;
-    if (begin == m) return false; // one partner owns everything: the others have no arc
-    for (int i = 0; i < m; ++i) {
-        const int p = (begin + i) % m;
-        if (runs.empty() || runs.back().owner != owner[p]) runs.push_back({p, 0, owner[p]});
-        ++runs.back().length;
+    const int m = static_cast<int>(polygon.size());
+    std::vector<OwnerRun> runs = ownerRuns(polygon, partners);
+    auto arcsPerOwner = [&](const std::vector<OwnerRun>& r) {
+        std::vector<int> count(n, 0);
+        for (const OwnerRun& run : r) ++count[run.owner];
+        return count;
+    };
+    auto onePerOwner = [&](const std::vector<OwnerRun>& r) {
+        const std::vector<int> count = arcsPerOwner(r);
+        return std::count(count.begin(), count.end(), 1) == n;
+    };
+    if (junction.inner.first >= 0) {
+        // A wall and its hole against several walls (a ring breaking open in several places at
+        // once, or arcs closing into a ring): each partner owns one arc of each, in the same
+        // order around; sector k is the wall's arc k, a chord to the hole, the hole's arc k
+        // backward (the ring on its left) and a chord back.
+        std::vector<OwnerRun> inner = ownerRuns(mLoops[junction.inner.first][junction.inner.second].view.polygon, partners);
+        mergeShortestRuns(runs, onePerOwner);
+        mergeShortestRuns(inner, onePerOwner);
+        if (!onePerOwner(runs) || !onePerOwner(inner)) return false;
+        for (std::vector<OwnerRun>* r : {&runs, &inner})
+            std::sort(r->begin(), r->end(), [](const OwnerRun& x, const OwnerRun& y) { return x.start < y.start; });
+        const std::size_t shift = static_cast<std::size_t>(
+            std::find_if(inner.begin(), inner.end(), [&](const OwnerRun& r) { return r.owner == runs[0].owner; }) - inner.begin());
+        for (std::size_t k = 0; k < runs.size(); ++k)
+            if (inner[(k + shift) % inner.size()].owner != runs[k].owner) return false; // not in the same order
+        for (std::size_t k = 0; k < runs.size(); ++k) {
+            junction.cuts.push_back(runs[k].start);
+            junction.arcOwner.push_back(runs[k].owner);
+            junction.innerCuts.push_back(inner[(k + shift) % inner.size()].start);
+        }
+        junction.hubbed = false;
+        return true;
     }
     // Two ways to close the arcs, both with every partner owning arcs: each partner one arc (a
     // fork: the arcs' chords meet at a hub), or one partner several, each of the others one, in
     // turn (a C with gaps against a wall and the holes it will enclose: each gap's chord closes
     // one arc, and joins the several's arcs into one loop).
-    auto arcsPerOwner = [&] {
-        std::vector<int> count(n, 0);
-        for (const Run& r : runs) ++count[r.owner];
-        return count;
-    };
-    auto valid = [&] {
-        const std::vector<int> count = arcsPerOwner();
-        if (std::count(count.begin(), count.end(), 1) == n) return true;
+    auto valid = [&](const std::vector<OwnerRun>& r) {
+        if (onePerOwner(r)) return true;
+        const std::vector<int> count = arcsPerOwner(r);
         const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
         if (count[several] < 2 || count[several] != n - 1 || std::count(count.begin(), count.end(), 1) != n - 1)
             return false;
-        for (std::size_t r = 0; r < runs.size(); ++r) // the several's arcs and the others' alternate
-            if ((runs[r].owner == several) == (runs[(r + 1) % runs.size()].owner == several)) return false;
+        for (std::size_t k = 0; k < r.size(); ++k) // the several's arcs and the others' alternate
+            if ((r[k].owner == several) == (r[(k + 1) % r.size()].owner == several)) return false;
         return true;
     };
-    // Merge the shortest run into its neighbours (a few points owned by a third partner across a
-    // narrow gap, say) until the arcs close one of these ways.
-    while (!valid() && runs.size() > 2) {
-        std::size_t shortest = 0;
-        for (std::size_t r = 1; r < runs.size(); ++r)
-            if (runs[r].length < runs[shortest].length) shortest = r;
-        const std::size_t previous = (shortest + runs.size() - 1) % runs.size(), next = (shortest + 1) % runs.size();
-        runs[previous].length += runs[shortest].length;
-        if (runs[next].owner == runs[previous].owner && next != previous) {
-            runs[previous].length += runs[next].length;
-            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::max(shortest, next)));
-            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::min(shortest, next)));
-        } else {
-            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(shortest));
-        }
-    }
-    if (!valid()) return false;
-    const std::vector<int> count = arcsPerOwner();
-    junction.hubbed = std::count(count.begin(), count.end(), 1) == n;
-    std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.start < b.start; });
+    mergeShortestRuns(runs, valid);
+    if (runs.empty() || !valid(runs)) return false;
+    const std::vector<int> count = arcsPerOwner(runs);
+    junction.hubbed = onePerOwner(runs);
+    std::sort(runs.begin(), runs.end(), [](const OwnerRun& a, const OwnerRun& b) { return a.start < b.start; });
     junction.hub = glm::dvec2(0.0);
-    for (const Run& r : runs) {
+    for (const OwnerRun& r : runs) {
         junction.cuts.push_back(r.start);
         junction.arcOwner.push_back(r.owner);
         junction.hub += polygon[r.start] / static_cast<double>(runs.size());
@@ -512,8 +558,8 @@ bool Reconstruction::splitJunction(Junction& junction) const
         // A closed arc needs a point between its cuts at every level, whatever its crossings:
         // its middle polygon point (after its first cut on the ring, even where they coincide).
         const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
-        for (std::size_t a = 0; a < runs.size(); ++a)
-            if (runs[a].owner != several) junction.mids.push_back((runs[a].start + runs[a].length / 2) % m);
+        for (const OwnerRun& r : runs)
+            if (r.owner != several) junction.mids.push_back((r.start + r.length / 2) % m);
         return true;
     }
     // The hub lies just short of the saddle: inside across a neck, outside across the gap of a C
@@ -989,6 +1035,9 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         firstCutOf[j] = vertexCount;
         for (int cut : junction.cuts) extras[single].push_back({cut, vertexCount++});
         for (int mid : junction.mids) extras[single].push_back({mid, vertexCount++});
+        if (junction.inner.first >= 0)
+            for (int cut : junction.innerCuts)
+                extras[memberOf[junction.inner.first][junction.inner.second]].push_back({cut, vertexCount++});
         if (junction.hubbed) hubOf[j] = vertexCount++;
     }
     mesh.vertices.resize(vertexCount);
@@ -1203,12 +1252,30 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
                 if (p == to) break;
             }
         };
+        // A ring's hole: its cut k is vertex firstCutOf + n + mids + k; arc k is appended from
+        // cut k + 1 back to cut k (the ring's side of the hole on its left).
+        const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberOf[junction.inner.first][junction.inner.second]) : Ring{};
+        auto appendInnerArcBackward = [&](std::vector<std::uint32_t>& part, std::size_t a) {
+            const std::uint32_t first = firstCutOf[j] + static_cast<std::uint32_t>(n + junction.mids.size());
+            auto at = [&](std::size_t k) {
+                return static_cast<std::size_t>(std::find(innerRing.ids.begin(), innerRing.ids.end(), first + static_cast<std::uint32_t>(k)) -
+                                                innerRing.ids.begin());
+            };
+            const std::size_t count = innerRing.ids.size();
+            for (std::size_t p = at((a + 1) % n), to = at(a);; p = (p + count - 1) % count) {
+                part.push_back(innerRing.ids[p]);
+                if (p == to) break;
+            }
+        };
         for (std::size_t k = 0; k < junction.many.size(); ++k) {
             // Partner k's loop: its arcs in walk order, each closed through the hub, or joined to
             // the next by the chord across the arc between them (which closes that arc).
             std::vector<std::uint32_t> part;
             for (std::size_t a = 0; a < n; ++a)
-                if (junction.arcOwner[a] == static_cast<int>(k)) appendArc(part, a);
+                if (junction.arcOwner[a] == static_cast<int>(k)) {
+                    appendArc(part, a);
+                    if (junction.inner.first >= 0) appendInnerArcBackward(part, a);
+                }
             if (junction.hubbed) part.push_back(hubOf[j]);
             const auto [ps, pl] = junction.many[k];
             const std::vector<std::uint32_t> partner = ringOf(memberOf[ps][pl]).ids;

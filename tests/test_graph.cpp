@@ -60,7 +60,7 @@ const samples::SampleInfo& infoOf(const std::string& name)
 // level built from scratch, its vertices a subset of the next level's bit for bit; the events'
 // contributions add up to the same Euler characteristic; the top level lies within one voxel of
 // volumeToMesh's isosurface, both ways.
-void expectIsosurfaceTopology(const std::string& name, int voids = 0)
+void expectIsosurfaceTopology(const std::string& name, int voids = 0, bool withinAVoxel = true)
 {
     SCOPED_TRACE(name);
     const samples::SampleInfo& info = infoOf(name);
@@ -96,6 +96,7 @@ void expectIsosurfaceTopology(const std::string& name, int voids = 0)
         if (!refinement.canRefine()) break;
         refinement.refine();
     }
+    if (!withinAVoxel) return;
     const Validation v = Validator(volume).validate(refinement.mesh().mesh);
     EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
     EXPECT_EQ(v.topology.euler, info.euler);
@@ -231,12 +232,19 @@ TEST(Graph, ObliqueThinVessel) { expectIsosurfaceTopology("oblique"); }
 TEST(Graph, TwoTubesStayTwo) { expectIsosurfaceTopology("two-tubes"); }
 TEST(Graph, HollowPipe) { expectIsosurfaceTopology("hollow"); }
 
+// Three generations: forks, and where the branches' sections touch above a fork, a ring that
+// breaks open in two places at once (a wall and its hole against two walls: two sectors).
+TEST(Graph, VesselTree) { expectIsosurfaceTopology("tree"); }
+// The topology of the next two; their geometry is a known gap below.
+TEST(Graph, TBranchTopology) { expectIsosurfaceTopology("tbranch", 0, false); }
+// Its open ends' rounded rims appear as arcs that close into a ring (several walls against a
+// wall and its hole), and its channel forks with the wall.
+TEST(Graph, HollowYTopology) { expectIsosurfaceTopology("hollow-y", 0, false); }
+
 // Known gaps (registered with WILL_FAIL in CMakeLists.txt; see the README): strict targets that
 // fail today.
-// - A T whose side branch lies in a slicing plane: the right topology, but the arm grows out of
-//   the main contour within one slab, and the band across it is 2.7 voxels off.
-TEST(Graph, DISABLED_KnownGapTBranchInTheSlicingPlane) { expectIsosurfaceTopology("tbranch"); }
-// - Slab pieces of other patterns (2:2 where two saddles fall in one half-voxel slab, 1:2 of a
-//   wall and a hole) are capped contour by contour: wrong Euler characteristic.
-TEST(Graph, DISABLED_KnownGapVesselTree) { expectIsosurfaceTopology("tree"); }
-TEST(Graph, DISABLED_KnownGapHollowY) { expectIsosurfaceTopology("hollow-y"); }
+// - A T whose side branch lies in a slicing plane: the branch's bottom and top are tangent to the
+//   planes, the arm grows along its whole length at once, and the bands there are 2.9 voxels off.
+TEST(Graph, DISABLED_KnownGapTBranchWithinAVoxel) { expectIsosurfaceTopology("tbranch"); }
+// - The hollow Y's open ends, where rims close from arcs: 1.7 voxels off.
+TEST(Graph, DISABLED_KnownGapHollowYWithinAVoxel) { expectIsosurfaceTopology("hollow-y"); }

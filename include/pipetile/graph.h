@@ -31,7 +31,8 @@ enum class EventKind {
     Start,      // 0:1, a tube begins (a minimum of the height on the surface): a cap
     End,        // 1:0, a tube ends (a maximum): a cap
     Fork,       // 1:n, n >= 2: n - 1 saddles (walls or holes; or a wall and its hole against one
-                // wall: a lumen opening into a C, a ring breaking open)
+                // wall: a lumen opening into a C, a ring breaking open); or a ring (a wall and
+                // its hole) breaking into n walls: n saddles
     Merge,      // n:1, n >= 2: n - 1 saddles
     Rim,        // a wall and the holes inside it begin or end together (0:k+1, k+1:0): an annulus
                 // for one hole, a face with k holes (k - 1 saddles) for more

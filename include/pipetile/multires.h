@@ -212,6 +212,9 @@ private:
         std::vector<int> cuts;                     // polygon point indices on single's view, in
                                                    // walk order; arc i runs from cuts[i] to cuts[i+1]
         std::vector<int> arcOwner;
+        std::pair<int, int> inner{-1, -1};         // a ring: the hole inside `single`, split the same
+        std::vector<int> innerCuts;                // way (arc k runs from innerCuts[k] to k + 1,
+                                                   // owned by arcOwner[k])
         std::vector<int> mids;                     // without a hub: the middle polygon point of each
                                                    // arc a chord closes, a vertex of every level
         bool hubbed = true;                        // every partner owns one arc: the arcs close
