@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <numeric>
 
@@ -87,6 +88,58 @@ bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<S
         pieces.push_back({{static_cast<int>(i)}, {partner}, EventKind::Band});
     }
     return true;
+}
+
+// A run of polygon points owned by one partner, cyclically: points start .. start + length - 1.
+struct OwnerRun { int start, length, owner; };
+
+// Each point of a polygon goes to the partner whose polygon passes nearest (the planes share
+// (u, v)); near a saddle the partners are the polygon's lobes, so the owners form arcs. Empty if
+// one partner owns every point.
+std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon, const std::vector<const std::vector<glm::dvec2>*>& partners)
+{
+    const int m = static_cast<int>(polygon.size());
+    std::vector<int> owner(m, 0);
+    for (int i = 0; i < m; ++i) {
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < partners.size(); ++k)
+            for (const glm::dvec2& q : *partners[k]) {
+                const glm::dvec2 d = q - polygon[i];
+                const double distance2 = d.x * d.x + d.y * d.y;
+                if (distance2 < best) { best = distance2; owner[i] = static_cast<int>(k); }
+            }
+    }
+    std::vector<OwnerRun> runs;
+    int begin = 0;
+    while (begin < m && owner[begin] == owner[(begin + m - 1) % m]) ++begin;
+    if (begin == m) return runs;
+    for (int i = 0; i < m; ++i) {
+        const int p = (begin + i) % m;
+        if (runs.empty() || runs.back().owner != owner[p]) runs.push_back({p, 0, owner[p]});
+        ++runs.back().length;
+    }
+    return runs;
+}
+
+// Gives the shortest run to its neighbours (a few points owned by a third partner across a narrow
+// gap, say) until `done` holds or two runs are left.
+template <class Done>
+void mergeShortestRuns(std::vector<OwnerRun>& runs, const Done& done)
+{
+    while (runs.size() > 2 && !done(runs)) {
+        std::size_t shortest = 0;
+        for (std::size_t r = 1; r < runs.size(); ++r)
+            if (runs[r].length < runs[shortest].length) shortest = r;
+        const std::size_t previous = (shortest + runs.size() - 1) % runs.size(), next = (shortest + 1) % runs.size();
+        runs[previous].length += runs[shortest].length;
+        if (runs[next].owner == runs[previous].owner && next != previous) {
+            runs[previous].length += runs[next].length;
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::max(shortest, next)));
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::min(shortest, next)));
+        } else {
+            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(shortest));
+        }
+    }
 }
 
 } // namespace
@@ -274,6 +327,77 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     for (const ContourGraph::Slab& slab : graph.slabs) graph.order.push_back(slab.above);
     if (original == 0) graph.order.clear();
     return graph;
+}
+
+bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm::dvec2>* inner,
+                   const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs)
+{
+    const int n = static_cast<int>(partners.size());
+    const int m = static_cast<int>(single.size());
+    std::vector<OwnerRun> runs = ownerRuns(single, partners);
+    auto arcsPerOwner = [&](const std::vector<OwnerRun>& r) {
+        std::vector<int> count(n, 0);
+        for (const OwnerRun& run : r) ++count[run.owner];
+        return count;
+    };
+    auto onePerOwner = [&](const std::vector<OwnerRun>& r) {
+        const std::vector<int> count = arcsPerOwner(r);
+        return std::count(count.begin(), count.end(), 1) == n;
+    };
+    if (inner) {
+        // A wall and its hole against several walls (a ring breaking open in several places at
+        // once, or arcs closing into a ring): each partner owns one arc of each, in the same
+        // order around; sector k is the wall's arc k, a chord to the hole, the hole's arc k
+        // backward (the ring on its left) and a chord back.
+        std::vector<OwnerRun> innerRuns = ownerRuns(*inner, partners);
+        mergeShortestRuns(runs, onePerOwner);
+        mergeShortestRuns(innerRuns, onePerOwner);
+        if (!onePerOwner(runs) || !onePerOwner(innerRuns)) return false;
+        for (std::vector<OwnerRun>* r : {&runs, &innerRuns})
+            std::sort(r->begin(), r->end(), [](const OwnerRun& x, const OwnerRun& y) { return x.start < y.start; });
+        const std::size_t shift = static_cast<std::size_t>(
+            std::find_if(innerRuns.begin(), innerRuns.end(), [&](const OwnerRun& r) { return r.owner == runs[0].owner; }) - innerRuns.begin());
+        for (std::size_t k = 0; k < runs.size(); ++k)
+            if (innerRuns[(k + shift) % innerRuns.size()].owner != runs[k].owner) return false; // not in the same order
+        for (std::size_t k = 0; k < runs.size(); ++k) {
+            arcs.cuts.push_back(runs[k].start);
+            arcs.owner.push_back(runs[k].owner);
+            arcs.innerCuts.push_back(innerRuns[(k + shift) % innerRuns.size()].start);
+        }
+        arcs.hubbed = false;
+        return true;
+    }
+    // Two ways to close the arcs, both with every partner owning arcs: each partner one arc (a
+    // fork: the arcs' chords meet at a hub), or one partner several, each of the others one, in
+    // turn (a C with gaps against a wall and the holes it will enclose: each gap's chord closes
+    // one arc, and joins the several's arcs into one loop).
+    auto valid = [&](const std::vector<OwnerRun>& r) {
+        if (onePerOwner(r)) return true;
+        const std::vector<int> count = arcsPerOwner(r);
+        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
+        if (count[several] < 2 || count[several] != n - 1 || std::count(count.begin(), count.end(), 1) != n - 1)
+            return false;
+        for (std::size_t k = 0; k < r.size(); ++k) // the several's arcs and the others' alternate
+            if ((r[k].owner == several) == (r[(k + 1) % r.size()].owner == several)) return false;
+        return true;
+    };
+    mergeShortestRuns(runs, valid);
+    if (runs.empty() || !valid(runs)) return false;
+    const std::vector<int> count = arcsPerOwner(runs);
+    arcs.hubbed = onePerOwner(runs);
+    std::sort(runs.begin(), runs.end(), [](const OwnerRun& a, const OwnerRun& b) { return a.start < b.start; });
+    for (const OwnerRun& r : runs) {
+        arcs.cuts.push_back(r.start);
+        arcs.owner.push_back(r.owner);
+    }
+    if (!arcs.hubbed) {
+        // A closed arc needs a point between its cuts at every level, whatever its crossings:
+        // its middle polygon point (after its first cut on the ring, even where they coincide).
+        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
+        for (const OwnerRun& r : runs)
+            if (r.owner != several) arcs.mids.push_back((r.start + r.length / 2) % m);
+    }
+    return true;
 }
 
 } // namespace pipetile

@@ -1,5 +1,6 @@
 // pipetile — multires: levels of detail, from a volume to closed triangle meshes.
 
+#include <pipetile/caps.h>
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
 #include <pipetile/toroidal.h>
@@ -42,33 +43,6 @@ void forEachIndex(int threads, std::size_t count, const Body& body)
     arena.execute(run);
 }
 
-// Where the tube really ends, beyond its last slice: march from the central point along the
-// slicing axis until the field leaves the tube's region, then bisect. Cone-shaped caps then
-// follow rounded ends instead of cutting them flat at the last slice. A hole's region is the
-// outside (`sign` -1): a void's channel ends where the solid begins again.
-bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex,
-              double sign = 1.0)
-{
-    constexpr double kStep = 0.25;
-    const double w0 = plane.w();
-    auto inRegion = [&](double w) { return sign * plane.sampleAt(center, w) < 0.0; };
-    double inT = 0.0;
-    if (!inRegion(w0)) return false;
-    for (double t = kStep; t <= reach + 1e-9; t += kStep) {
-        if (!inRegion(w0 + direction * t)) {
-            double lo = inT, hi = t;
-            for (int i = 0; i < 40; ++i) {
-                const double mid = 0.5 * (lo + hi);
-                (inRegion(w0 + direction * mid) ? lo : hi) = mid;
-            }
-            wApex = w0 + direction * 0.5 * (lo + hi);
-            return true;
-        }
-        inT = t;
-    }
-    return false;
-}
-
 // Index in [0, count) of the candidate that `accept` takes whose point is nearest `target` (the
 // first of equals); -1 if it takes none.
 template <class PointOf, class Accept>
@@ -83,45 +57,6 @@ int nearest(int count, const glm::dvec2& target, const PointOf& pointOf, const A
         if (best < 0 || distance2 < bestDistance2) { best = k; bestDistance2 = distance2; }
     }
     return best;
-}
-
-// Triangulates a simple polygon, counterclockwise in the plane, by ear clipping: m - 2 triangles,
-// counterclockwise. Where rounding leaves no clean ear (a nearly degenerate polygon), the most
-// convex corner is clipped anyway, so the count, and the closed mesh, never depend on it.
-std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
-{
-    std::vector<std::uint32_t> ring(p.size());
-    for (std::uint32_t i = 0; i < ring.size(); ++i) ring[i] = i;
-    auto cross = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-        const glm::dvec2 u = p[b] - p[a], v = p[c] - p[b];
-        return u.x * v.y - u.y * v.x;
-    };
-    auto inside = [&](std::uint32_t q, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-        return cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0;
-    };
-    std::vector<Triangle> triangles;
-    while (ring.size() > 3) {
-        const std::size_t n = ring.size();
-        std::size_t clip = n, convexmost = 0;
-        double best = -std::numeric_limits<double>::infinity();
-        for (std::size_t k = 0; k < n && clip == n; ++k) {
-            const std::uint32_t a = ring[(k + n - 1) % n], b = ring[k], c = ring[(k + 1) % n];
-            const double turn = cross(a, b, c);
-            if (turn > best) { best = turn; convexmost = k; }
-            if (turn <= 0.0) continue;
-            bool ear = true;
-            for (std::size_t j = 0; j < n && ear; ++j) {
-                const std::uint32_t q = ring[j];
-                if (q != a && q != b && q != c && inside(q, a, b, c)) ear = false;
-            }
-            if (ear) clip = k;
-        }
-        if (clip == n) clip = convexmost;
-        triangles.push_back({ring[(clip + n - 1) % n], ring[clip], ring[(clip + 1) % n]});
-        ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(clip));
-    }
-    if (ring.size() == 3) triangles.push_back({ring[0], ring[1], ring[2]});
-    return triangles;
 }
 
 // Rule [1']: in each ambiguous sector, rank the F edges of `contour` by their distance to the F
@@ -170,102 +105,6 @@ void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t 
             return;
         }
     throw std::logic_error("pipetile internal invariant broken: a contour edge lies in no triangle of its band");
-}
-
-// An acceptable surface between contours of m and n points (ids 0..m-1 and m..m+n-1, in strip
-// order, as tileOptimal returns it) in which one point is joined to every point of the other
-// contour repeats a spanning edge, in four triangles: a valid path on the toroidal graph, but
-// not a manifold. That is the only way a strip repeats an edge (a path revisits a node of the
-// torus only by going once around in one direction alone), so moving the run's last step past
-// the next step of the other contour removes it, and nothing else changes.
-std::vector<Triangle> withoutFullFans(const std::vector<Triangle>& strip, std::uint32_t m, std::uint32_t n)
-{
-    // Steps: true advances A (a triangle with two points of A), false advances B.
-    std::vector<bool> steps;
-    for (const Triangle& t : strip) steps.push_back((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
-    const std::size_t count = steps.size();
-    for (std::size_t start = 0; start < count; ++start) {
-        const bool kind = steps[start];
-        if (steps[(start + count - 1) % count] == kind) continue; // not the start of a run
-        std::size_t length = 0;
-        while (length < count && steps[(start + length) % count] == kind) ++length;
-        if (length < (kind ? m : n)) continue;
-        // A run of m A-steps (n B-steps) fans one point of the other contour over all of this one.
-        steps[(start + length - 1) % count] = !kind;
-        steps[(start + length) % count] = kind;
-    }
-    if (std::equal(steps.begin(), steps.end(), strip.begin(), [&](bool step, const Triangle& t) {
-            return step == ((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
-        }))
-        return strip;
-    // Rebuild from where the first triangle starts: an A-step is {a_i, a_i+1, b_j}, a B-step
-    // {a_i, b_j+1, b_j}.
-    std::uint32_t as[2] = {0, 0}, bs[2] = {0, 0}, na = 0, nb = 0;
-    for (std::uint32_t v : strip.front()) {
-        if (v < m) as[na++] = v;
-        else bs[nb++] = v - m;
-    }
-    std::uint32_t i = as[0], j = bs[0];
-    if (na == 2) i = as[1] == (as[0] + 1) % m ? as[0] : as[1];
-    else j = bs[1] == (bs[0] + 1) % n ? bs[0] : bs[1];
-    std::vector<Triangle> result;
-    for (bool stepA : steps) {
-        if (stepA) { result.push_back({i, (i + 1) % m, m + j}); i = (i + 1) % m; }
-        else { result.push_back({i, m + (j + 1) % n, m + j}); j = (j + 1) % n; }
-    }
-    return result;
-}
-
-// A run of polygon points owned by one partner, cyclically: points start .. start + length - 1.
-struct OwnerRun { int start, length, owner; };
-
-// Each point of a polygon goes to the partner whose polygon passes nearest (the planes share
-// (u, v)); near a saddle the partners are the polygon's lobes, so the owners form arcs. Empty if
-// one partner owns every point.
-std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon, const std::vector<const std::vector<glm::dvec2>*>& partners)
-{
-    const int m = static_cast<int>(polygon.size());
-    std::vector<int> owner(m, 0);
-    for (int i = 0; i < m; ++i) {
-        double best = std::numeric_limits<double>::infinity();
-        for (std::size_t k = 0; k < partners.size(); ++k)
-            for (const glm::dvec2& q : *partners[k]) {
-                const glm::dvec2 d = q - polygon[i];
-                const double distance2 = d.x * d.x + d.y * d.y;
-                if (distance2 < best) { best = distance2; owner[i] = static_cast<int>(k); }
-            }
-    }
-    std::vector<OwnerRun> runs;
-    int begin = 0;
-    while (begin < m && owner[begin] == owner[(begin + m - 1) % m]) ++begin;
-    if (begin == m) return runs;
-    for (int i = 0; i < m; ++i) {
-        const int p = (begin + i) % m;
-        if (runs.empty() || runs.back().owner != owner[p]) runs.push_back({p, 0, owner[p]});
-        ++runs.back().length;
-    }
-    return runs;
-}
-
-// Gives the shortest run to its neighbours (a few points owned by a third partner across a narrow
-// gap, say) until `done` holds or two runs are left.
-template <class Done>
-void mergeShortestRuns(std::vector<OwnerRun>& runs, const Done& done)
-{
-    while (runs.size() > 2 && !done(runs)) {
-        std::size_t shortest = 0;
-        for (std::size_t r = 1; r < runs.size(); ++r)
-            if (runs[r].length < runs[shortest].length) shortest = r;
-        const std::size_t previous = (shortest + runs.size() - 1) % runs.size(), next = (shortest + 1) % runs.size();
-        runs[previous].length += runs[shortest].length;
-        if (runs[next].owner == runs[previous].owner && next != previous) {
-            runs[previous].length += runs[next].length;
-            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::max(shortest, next)));
-            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::min(shortest, next)));
-        } else {
-            runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(shortest));
-        }
-    }
 }
 
 } // namespace
@@ -493,75 +332,13 @@ bool Reconstruction::splitJunction(Junction& junction) const
 {
     std::vector<const std::vector<glm::dvec2>*> partners;
     for (const auto& [s, l] : junction.many) partners.push_back(&mLoops[s][l].view.polygon);
-    const int n = static_cast<int>(partners.size());
     const std::vector<glm::dvec2>& polygon = mLoops[junction.single.first][junction.single.second].view.polygon;
-    const int m = static_cast<int>(polygon.size());
-    std::vector<OwnerRun> runs = ownerRuns(polygon, partners);
-    auto arcsPerOwner = [&](const std::vector<OwnerRun>& r) {
-        std::vector<int> count(n, 0);
-        for (const OwnerRun& run : r) ++count[run.owner];
-        return count;
-    };
-    auto onePerOwner = [&](const std::vector<OwnerRun>& r) {
-        const std::vector<int> count = arcsPerOwner(r);
-        return std::count(count.begin(), count.end(), 1) == n;
-    };
-    if (junction.inner.first >= 0) {
-        // A wall and its hole against several walls (a ring breaking open in several places at
-        // once, or arcs closing into a ring): each partner owns one arc of each, in the same
-        // order around; sector k is the wall's arc k, a chord to the hole, the hole's arc k
-        // backward (the ring on its left) and a chord back.
-        std::vector<OwnerRun> inner = ownerRuns(mLoops[junction.inner.first][junction.inner.second].view.polygon, partners);
-        mergeShortestRuns(runs, onePerOwner);
-        mergeShortestRuns(inner, onePerOwner);
-        if (!onePerOwner(runs) || !onePerOwner(inner)) return false;
-        for (std::vector<OwnerRun>* r : {&runs, &inner})
-            std::sort(r->begin(), r->end(), [](const OwnerRun& x, const OwnerRun& y) { return x.start < y.start; });
-        const std::size_t shift = static_cast<std::size_t>(
-            std::find_if(inner.begin(), inner.end(), [&](const OwnerRun& r) { return r.owner == runs[0].owner; }) - inner.begin());
-        for (std::size_t k = 0; k < runs.size(); ++k)
-            if (inner[(k + shift) % inner.size()].owner != runs[k].owner) return false; // not in the same order
-        for (std::size_t k = 0; k < runs.size(); ++k) {
-            junction.cuts.push_back(runs[k].start);
-            junction.arcOwner.push_back(runs[k].owner);
-            junction.innerCuts.push_back(inner[(k + shift) % inner.size()].start);
-        }
-        junction.hubbed = false;
-        return true;
-    }
-    // Two ways to close the arcs, both with every partner owning arcs: each partner one arc (a
-    // fork: the arcs' chords meet at a hub), or one partner several, each of the others one, in
-    // turn (a C with gaps against a wall and the holes it will enclose: each gap's chord closes
-    // one arc, and joins the several's arcs into one loop).
-    auto valid = [&](const std::vector<OwnerRun>& r) {
-        if (onePerOwner(r)) return true;
-        const std::vector<int> count = arcsPerOwner(r);
-        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
-        if (count[several] < 2 || count[several] != n - 1 || std::count(count.begin(), count.end(), 1) != n - 1)
-            return false;
-        for (std::size_t k = 0; k < r.size(); ++k) // the several's arcs and the others' alternate
-            if ((r[k].owner == several) == (r[(k + 1) % r.size()].owner == several)) return false;
-        return true;
-    };
-    mergeShortestRuns(runs, valid);
-    if (runs.empty() || !valid(runs)) return false;
-    const std::vector<int> count = arcsPerOwner(runs);
-    junction.hubbed = onePerOwner(runs);
-    std::sort(runs.begin(), runs.end(), [](const OwnerRun& a, const OwnerRun& b) { return a.start < b.start; });
+    const std::vector<glm::dvec2>* inner =
+        junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second].view.polygon : nullptr;
+    if (!splitIntoArcs(polygon, inner, partners, junction)) return false;
+    if (inner || !junction.hubbed) return true;
     junction.hub = glm::dvec2(0.0);
-    for (const OwnerRun& r : runs) {
-        junction.cuts.push_back(r.start);
-        junction.arcOwner.push_back(r.owner);
-        junction.hub += polygon[r.start] / static_cast<double>(runs.size());
-    }
-    if (!junction.hubbed) {
-        // A closed arc needs a point between its cuts at every level, whatever its crossings:
-        // its middle polygon point (after its first cut on the ring, even where they coincide).
-        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
-        for (const OwnerRun& r : runs)
-            if (r.owner != several) junction.mids.push_back((r.start + r.length / 2) % m);
-        return true;
-    }
+    for (int cut : junction.cuts) junction.hub += polygon[cut] / static_cast<double>(junction.cuts.size());
     // The hub lies just short of the saddle: inside across a neck, outside across the gap of a C
     // that closes. Toward the partners' plane the field changes sides at the saddle itself, so
     // the hub moves there (and stays put if it does not get there).
@@ -1272,7 +1049,7 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             // the next by the chord across the arc between them (which closes that arc).
             std::vector<std::uint32_t> part;
             for (std::size_t a = 0; a < n; ++a)
-                if (junction.arcOwner[a] == static_cast<int>(k)) {
+                if (junction.owner[a] == static_cast<int>(k)) {
                     appendArc(part, a);
                     if (junction.inner.first >= 0) appendInnerArcBackward(part, a);
                 }

@@ -282,4 +282,42 @@ std::vector<Triangle> tileGreedy(const std::vector<glm::dvec3>& a, const std::ve
     return band;
 }
 
+std::vector<Triangle> withoutFullFans(const std::vector<Triangle>& strip, std::uint32_t m, std::uint32_t n)
+{
+    // Steps: true advances A (a triangle with two points of A), false advances B.
+    std::vector<bool> steps;
+    for (const Triangle& t : strip) steps.push_back((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
+    const std::size_t count = steps.size();
+    for (std::size_t start = 0; start < count; ++start) {
+        const bool kind = steps[start];
+        if (steps[(start + count - 1) % count] == kind) continue; // not the start of a run
+        std::size_t length = 0;
+        while (length < count && steps[(start + length) % count] == kind) ++length;
+        if (length < (kind ? m : n)) continue;
+        // A run of m A-steps (n B-steps) fans one point of the other contour over all of this one.
+        steps[(start + length - 1) % count] = !kind;
+        steps[(start + length) % count] = kind;
+    }
+    if (std::equal(steps.begin(), steps.end(), strip.begin(), [&](bool step, const Triangle& t) {
+            return step == ((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
+        }))
+        return strip;
+    // Rebuild from where the first triangle starts: an A-step is {a_i, a_i+1, b_j}, a B-step
+    // {a_i, b_j+1, b_j}.
+    std::uint32_t as[2] = {0, 0}, bs[2] = {0, 0}, na = 0, nb = 0;
+    for (std::uint32_t v : strip.front()) {
+        if (v < m) as[na++] = v;
+        else bs[nb++] = v - m;
+    }
+    std::uint32_t i = as[0], j = bs[0];
+    if (na == 2) i = as[1] == (as[0] + 1) % m ? as[0] : as[1];
+    else j = bs[1] == (bs[0] + 1) % n ? bs[0] : bs[1];
+    std::vector<Triangle> result;
+    for (bool stepA : steps) {
+        if (stepA) { result.push_back({i, (i + 1) % m, m + j}); i = (i + 1) % m; }
+        else { result.push_back({i, m + (j + 1) % n, m + j}); j = (j + 1) % n; }
+    }
+    return result;
+}
+
 } // namespace pipetile

@@ -147,6 +147,49 @@ TEST(Graph, SlabPiecesOfAFork)
     for (const SlabPiece& piece : pieces) EXPECT_EQ(piece.kind, EventKind::Band);
 }
 
+namespace {
+
+std::vector<glm::dvec2> circle(const glm::dvec2& center, double rx, double ry, int points, bool clockwise = false)
+{
+    std::vector<glm::dvec2> polygon;
+    for (int k = 0; k < points; ++k) {
+        const double a = (clockwise ? -2.0 : 2.0) * kPi * k / points;
+        polygon.push_back(center + glm::dvec2(rx * std::cos(a), ry * std::sin(a)));
+    }
+    return polygon;
+}
+
+} // namespace
+
+TEST(Graph, ArcsOfAPeanutGoToItsLobes)
+{
+    // An ellipse (10 x 4) over two circles of radius 4 at x = -5 and 5: each half of the ellipse
+    // is nearest one circle, so two arcs, cut where x changes sign (the points at 90 and 270
+    // degrees, x = 0), closed through a hub.
+    const std::vector<glm::dvec2> single = circle({0.0, 0.0}, 10.0, 4.0, 64);
+    const std::vector<glm::dvec2> left = circle({-5.0, 0.0}, 4.0, 4.0, 32), right = circle({5.0, 0.0}, 4.0, 4.0, 32);
+    JunctionArcs arcs;
+    ASSERT_TRUE(splitIntoArcs(single, nullptr, {&left, &right}, arcs));
+    EXPECT_TRUE(arcs.hubbed);
+    ASSERT_EQ(arcs.cuts.size(), 2u);
+    EXPECT_NE(arcs.owner[0], arcs.owner[1]);
+    for (int cut : arcs.cuts) EXPECT_LT(std::abs(single[cut].x), 1.0) << cut;
+    // Two partners and a ring (a wall of radius 10 around a hole of radius 5) against them: both
+    // loops are cut into a left and a right arc, in the same order.
+    const std::vector<glm::dvec2> wall = circle({0.0, 0.0}, 10.0, 10.0, 64), hole = circle({0.0, 0.0}, 5.0, 5.0, 32, true);
+    JunctionArcs ring;
+    ASSERT_TRUE(splitIntoArcs(wall, &hole, {&left, &right}, ring));
+    EXPECT_FALSE(ring.hubbed);
+    ASSERT_EQ(ring.cuts.size(), 2u);
+    ASSERT_EQ(ring.innerCuts.size(), 2u);
+    for (int cut : ring.cuts) EXPECT_LT(std::abs(wall[cut].x), 1.0);
+    for (int cut : ring.innerCuts) EXPECT_LT(std::abs(hole[cut].x), 1.0);
+    // One partner alone owns everything: no arcs for the others.
+    const std::vector<glm::dvec2> far = circle({50.0, 0.0}, 4.0, 4.0, 32);
+    JunctionArcs none;
+    EXPECT_FALSE(splitIntoArcs(circle({-5.0, 0.0}, 3.0, 3.0, 32), nullptr, {&left, &far}, none));
+}
+
 TEST(Graph, TwistingCStaysOneTube)
 {
     // A C-shaped section (a 270-degree arc of radius 12, 5 thick) turning 15 degrees per voxel

@@ -92,4 +92,27 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane);
 
+/// How a junction's single contour is cut into arcs by its partners (decided once, on the
+/// polygons, so every level has the same cuts). Each point of the polygon goes to the partner
+/// whose polygon passes nearest (the planes share (u, v)); near a saddle the partners are its
+/// lobes, so the owners form arcs, and a few points owned across a narrow gap are given to their
+/// neighbours. Arc k runs from cuts[k] to cuts[k + 1] (polygon point indices, ascending,
+/// cyclically) and goes to partner owner[k].
+struct JunctionArcs {
+    std::vector<int> cuts, owner;
+    bool hubbed = true;         // every partner owns one arc: the arcs close through a hub (a
+                                // fork); else one partner owns every other arc and the others one
+                                // each (a C whose gaps close around holes): chords across the
+                                // gaps close those arcs and join the first partner's
+    std::vector<int> mids;      // without a hub: the middle point of each arc a chord closes,
+                                // so that it has three points at every level
+    std::vector<int> innerCuts; // a ring's hole, split the same way: its arc k (from innerCuts[k]
+                                // to innerCuts[k + 1]) also goes to owner[k]
+};
+
+/// Splits `single` (and, for a ring, the hole `inner` inside it; null otherwise) into arcs by
+/// `partners`. False if the arcs do not close any of the ways JunctionArcs describes.
+bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm::dvec2>* inner,
+                   const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs);
+
 } // namespace pipetile

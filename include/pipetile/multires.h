@@ -202,28 +202,18 @@ private:
     };
     /// A fork or merge: one contour (`single`) split into arcs by cut points on its polygon, one
     /// arc per contour on the other side (`many`), each arc tiled to its partner. Decided once.
-    struct Junction {
+    struct Junction : JunctionArcs {
         EventKind kind = EventKind::Fork;          // Fork: `single` lies below `many`; Merge: above;
                                                    // Rim: a wall and its holes in one plane, where
                                                    // their tubes begin (bottom) or end (top)
         bool top = false;                          // a Rim at the tubes' top ends
-        std::pair<int, int> single;                // (plane, loop)
-        std::vector<std::pair<int, int>> many;     // partner of arc i: many[arcOwner[i]]
-        std::vector<int> cuts;                     // polygon point indices on single's view, in
-                                                   // walk order; arc i runs from cuts[i] to cuts[i+1]
-        std::vector<int> arcOwner;
-        std::pair<int, int> inner{-1, -1};         // a ring: the hole inside `single`, split the same
-        std::vector<int> innerCuts;                // way (arc k runs from innerCuts[k] to k + 1,
-                                                   // owned by arcOwner[k])
-        std::vector<int> mids;                     // without a hub: the middle polygon point of each
-                                                   // arc a chord closes, a vertex of every level
-        bool hubbed = true;                        // every partner owns one arc: the arcs close
-                                                   // through the hub; else one partner owns every
-                                                   // other arc, and chords across the others close
-                                                   // them and join its arcs
-        glm::dvec2 hub{0.0};                       // where the chords from the cuts meet: their
-        double hubW = 0.0;                         // mean, moved along the axis toward the partners
-                                                   // onto the surface (the crotch), if it gets there
+        std::pair<int, int> single{-1, -1};        // (plane, loop)
+        std::pair<int, int> inner{-1, -1};         // a ring's hole inside `single`, or none
+        std::vector<std::pair<int, int>> many;     // the partners: arc k goes to many[owner[k]]
+        glm::dvec2 hub{0.0};                       // hubbed: where the chords from the cuts meet,
+        double hubW = 0.0;                         // their mean, moved along the axis toward the
+                                                   // partners onto the surface (the crotch), if it
+                                                   // gets there
     };
 
     // The stages of the constructor, in order.

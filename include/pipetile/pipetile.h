@@ -1,6 +1,7 @@
 // pipetile — the whole public API in one include.
 #pragma once
 
+#include <pipetile/caps.h>
 #include <pipetile/contour.h>
 #include <pipetile/error.h>
 #include <pipetile/graph.h>

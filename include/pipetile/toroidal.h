@@ -11,6 +11,7 @@
 #include <glm/vec3.hpp>
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace pipetile {
@@ -47,5 +48,13 @@ std::vector<Triangle> tileOptimal(const std::vector<glm::dvec3>& a, const std::v
 /// @throw Error if a contour has fewer than 3 points or a point that is not finite
 std::vector<Triangle> tileGreedy(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
                                  ToroidalStats* stats = nullptr);
+
+/// An acceptable surface between contours of m and n points (ids 0..m-1 and m..m+n-1, in strip
+/// order, as tileOptimal returns it) in which one point is joined to every point of the other
+/// contour repeats a spanning edge, in four triangles: a valid path on the toroidal graph, but
+/// not a manifold. That is the only way a strip repeats an edge (a path revisits a node of the
+/// torus only by going once around in one direction alone), so moving the run's last step past
+/// the next step of the other contour removes it, and nothing else changes.
+std::vector<Triangle> withoutFullFans(const std::vector<Triangle>& strip, std::uint32_t m, std::uint32_t n);
 
 } // namespace pipetile

@@ -1,0 +1,29 @@
+// pipetile — caps: closing where tubes end. A tube's end is sought beyond its last slice along
+// the slicing axis (the apex), so caps follow rounded ends instead of cutting them flat; an end
+// contour that is not star-shaped is closed flat by ear clipping. Rims, annuli and the end
+// contours themselves are placed by the reconstruction's closeEnds stage (multires.h) with these.
+#pragma once
+
+#include <pipetile/slicer.h>
+#include <pipetile/tiler.h>
+
+#include <glm/vec2.hpp>
+
+#include <vector>
+
+namespace pipetile {
+
+/// Where the region around `point` ends along the slicing axis, beyond `plane`: marches from the
+/// plane in `direction` (+1 or -1), a quarter voxel at a time up to `reach` voxels, until the
+/// field leaves the region, then bisects. The region is the inside (`sign` +1) or, for a hole,
+/// the outside (`sign` -1). Returns false, leaving `w` alone, if the point is not in the region
+/// on the plane or the region goes on past `reach`.
+bool findApex(const SlicePlane& plane, const glm::dvec2& point, double direction, double reach, double& w,
+              double sign = 1.0);
+
+/// Triangulates a simple polygon, counterclockwise in the plane, by ear clipping: m - 2
+/// triangles, counterclockwise. Where rounding leaves no clean ear (a nearly degenerate polygon),
+/// the most convex corner is clipped anyway, so the count, and the closed mesh, never depend on it.
+std::vector<Triangle> earClip(const std::vector<glm::dvec2>& polygon);
+
+} // namespace pipetile

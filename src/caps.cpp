@@ -1,0 +1,68 @@
+// pipetile — caps: closing where tubes end.
+
+#include <pipetile/caps.h>
+
+#include <cstdint>
+#include <limits>
+
+namespace pipetile {
+
+bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex, double sign)
+{
+    constexpr double kStep = 0.25;
+    const double w0 = plane.w();
+    auto inRegion = [&](double w) { return sign * plane.sampleAt(center, w) < 0.0; };
+    double inT = 0.0;
+    if (!inRegion(w0)) return false;
+    for (double t = kStep; t <= reach + 1e-9; t += kStep) {
+        if (!inRegion(w0 + direction * t)) {
+            double lo = inT, hi = t;
+            for (int i = 0; i < 40; ++i) {
+                const double mid = 0.5 * (lo + hi);
+                (inRegion(w0 + direction * mid) ? lo : hi) = mid;
+            }
+            wApex = w0 + direction * 0.5 * (lo + hi);
+            return true;
+        }
+        inT = t;
+    }
+    return false;
+}
+
+std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
+{
+    std::vector<std::uint32_t> ring(p.size());
+    for (std::uint32_t i = 0; i < ring.size(); ++i) ring[i] = i;
+    auto cross = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        const glm::dvec2 u = p[b] - p[a], v = p[c] - p[b];
+        return u.x * v.y - u.y * v.x;
+    };
+    auto inside = [&](std::uint32_t q, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        return cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0;
+    };
+    std::vector<Triangle> triangles;
+    while (ring.size() > 3) {
+        const std::size_t n = ring.size();
+        std::size_t clip = n, convexmost = 0;
+        double best = -std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < n && clip == n; ++k) {
+            const std::uint32_t a = ring[(k + n - 1) % n], b = ring[k], c = ring[(k + 1) % n];
+            const double turn = cross(a, b, c);
+            if (turn > best) { best = turn; convexmost = k; }
+            if (turn <= 0.0) continue;
+            bool ear = true;
+            for (std::size_t j = 0; j < n && ear; ++j) {
+                const std::uint32_t q = ring[j];
+                if (q != a && q != b && q != c && inside(q, a, b, c)) ear = false;
+            }
+            if (ear) clip = k;
+        }
+        if (clip == n) clip = convexmost;
+        triangles.push_back({ring[(clip + n - 1) % n], ring[clip], ring[(clip + 1) % n]});
+        ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(clip));
+    }
+    if (ring.size() == 3) triangles.push_back({ring[0], ring[1], ring[2]});
+    return triangles;
+}
+
+} // namespace pipetile
