@@ -187,7 +187,7 @@ bool insidePolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p)
 // The enclosed pixel farthest from the boundary, by a 3-4 chamfer distance over the loop's box,
 // among those inside the marching-squares polygon (in a sliver a pixel or two wide, the deepest
 // pixel centre can lie outside it); the centroid if there is none.
-glm::dvec2 deepestPixel(const BoundaryLoop& loop)
+glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     glm::ivec2 lo = loop.corners[0], hi = loop.corners[0];
     for (const glm::ivec2& c : loop.corners) { lo = glm::min(lo, c); hi = glm::max(hi, c); }
@@ -228,6 +228,19 @@ glm::dvec2 deepestPixel(const BoundaryLoop& loop)
         for (int x = 0; x < w; ++x) {
             const glm::dvec2 p(x + origin.x, y + origin.y);
             if (dist[y * w + x] > best && insidePolygon(loop.points, p)) { best = dist[y * w + x]; point = p; }
+        }
+    if (!near || best < 0) return point;
+    // Along a section of even width the deepest pixels form a ridge, all about as deep: take the
+    // one nearest `near` among those within one pixel step (3) of the deepest.
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const glm::dvec2 p(x + origin.x, y + origin.y);
+            const glm::dvec2 d = p - *near;
+            if (dist[y * w + x] >= best - 3 && d.x * d.x + d.y * d.y < nearest && insidePolygon(loop.points, p)) {
+                nearest = d.x * d.x + d.y * d.y;
+                point = p;
+            }
         }
     return point;
 }
@@ -634,10 +647,15 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
                       image.origin + glm::ivec2(image.width, image.height));
 }
 
-glm::dvec2 centralPoint(const BoundaryLoop& loop)
+bool centroidInside(const BoundaryLoop& loop)
+{
+    return encloses(loop, loop.centroid) && insidePolygon(loop.points, loop.centroid);
+}
+
+glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     if (loop.corners.empty()) return loop.centroid;
-    return encloses(loop, loop.centroid) && insidePolygon(loop.points, loop.centroid) ? loop.centroid : deepestPixel(loop);
+    return centroidInside(loop) ? loop.centroid : deepestPixel(loop, near);
 }
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)

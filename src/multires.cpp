@@ -135,6 +135,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     traceSlices();
     correspond();
     resolveEvents();
+    followCentres();
     closeEnds();
     groupRays();
     chooseSlices();
@@ -348,6 +349,24 @@ bool Reconstruction::splitJunction(Junction& junction) const
     const double side = plane.sampleAt(junction.hub, w) < 0.0 ? 1.0 : -1.0;
     findApex(plane, junction.hub, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), junction.hubW, side);
     return true;
+}
+
+void Reconstruction::followCentres()
+{
+    // A C-shaped section's central point is a pixel on the ridge along its arc, where the tie
+    // falls by scan order: consecutive sections could take points across the C from each other,
+    // and their bands then cross its gap (rays pair by index from each centre). Along a tube,
+    // each such section takes the ridge point nearest its predecessor's centre instead.
+    for (const Tube& tube : mTubes)
+        for (std::size_t k = 1; k < tube.members.size(); ++k) {
+            SliceLoop& loop = mLoops[tube.members[k].first][tube.members[k].second];
+            if (centroidInside(loop.loop)) continue;
+            const glm::dvec2 previous = mLoops[tube.members[k - 1].first][tube.members[k - 1].second].view.center;
+            LoopView view = viewFrom(loop.loop, centralPoint(loop.loop, &previous));
+            if (view.winding != 1 || view.center == loop.view.center) continue;
+            loop.profile = radialProfile(view, profileDirections());
+            loop.view = std::move(view);
+        }
 }
 
 void Reconstruction::closeEnds()

@@ -127,8 +127,12 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
 
 /// A point inside the region a loop encloses, and inside its marching-squares polygon (what rays
 /// are cut against): its centroid when that lies inside, else the enclosed pixel farthest from the
-/// boundary (chamfer distance; C-shaped sections) that lies inside the polygon.
-glm::dvec2 centralPoint(const BoundaryLoop& loop);
+/// boundary (chamfer distance; C-shaped sections) that lies inside the polygon; with `near`, the
+/// one nearest `near` of those about as deep (a C's ridge: so a tube's central points follow it).
+glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near = nullptr);
+
+/// Whether the loop's centroid lies inside it (and its polygon): centralPoint() is the centroid.
+bool centroidInside(const BoundaryLoop& loop);
 
 /// Even-odd test: does the loop's polygon enclose the point?
 bool encloses(const BoundaryLoop& loop, const glm::dvec2& point);

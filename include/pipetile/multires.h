@@ -225,6 +225,7 @@ private:
     void correspond();
     void resolveEvents();
     bool splitJunction(Junction& junction) const;
+    void followCentres();
     void closeEnds();
     void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
