@@ -217,7 +217,6 @@ int runMesh(const MeshArgs& args)
     std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
     for (std::size_t k = 0; k < levels.size(); ++k) {
         const pipetile::LevelMesh& level = levels[k];
-        const pipetile::Topology topology = pipetile::checkTopology(level.mesh);
         report["levels"].push_back({
             {"level", level.level},
             {"rays", level.rays},
@@ -235,9 +234,14 @@ int runMesh(const MeshArgs& args)
             {"ambiguous_contours", level.ambiguousContours},
             {"ambiguous_sectors", level.ambiguousSectors},
             {"interpolation_fallbacks", level.interpolationFallbacks},
-            {"euler", topology.euler},
-            {"components", topology.components},
         });
+        if (!args.report.empty()) {
+            // The level's own Euler characteristic, against the events' (a linear pass over the
+            // triangles, so only when a report is asked for).
+            const pipetile::Topology topology = pipetile::checkTopology(level.mesh);
+            report["levels"][k]["euler"] = topology.euler;
+            report["levels"][k]["components"] = topology.components;
+        }
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
                     level.mesh.triangles.size(), level.seconds, written[k].c_str());
     }
