@@ -166,9 +166,7 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
             std::count_if(ids.begin(), ids.end(), [&](int i) { return plane.loops[i]->hole(); }));
     };
     const std::size_t holesBelow = holes(piece.below, below), holesAbove = holes(piece.above, above);
-    const bool oneKind = (holesBelow == 0 || holesBelow == a) && (holesAbove == 0 || holesAbove == b) &&
-                         (a == 0 || b == 0 || (holesBelow == 0) == (holesAbove == 0));
-    if (a == 1 && b == 1) return oneKind ? EventKind::Band : EventKind::Unresolved;
+    if (a == 1 && b == 1) return holesBelow == holesAbove ? EventKind::Band : EventKind::Unresolved;
     if (a == 0 && b == 1) return EventKind::Start;
     if (a == 1 && b == 0) return EventKind::End;
     // One contour against several, of one kind (a fork of walls or of holes) or of both (a wall
@@ -184,24 +182,33 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
     return EventKind::Unresolved;
 }
 
-std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
-                                          const PlaneLoops& above)
-{
-    std::vector<SlabPiece> pieces;
-    if (simpleBands(below, above, pieces)) return pieces;
-    pieces.clear();
-    if (below.loops.empty() && above.loops.empty()) return pieces;
+namespace {
 
+// The slab's voxels labelled by connected region: inside voxels 8-connected in a layer (as the
+// boundary walk joins inside pixels), outside voxels 4-connected, both joined along w; every
+// outside voxel on the box's rim joins one exterior.
+struct SlabLabels {
+    glm::ivec2 lo{0};
+    int width = 0, height = 0, depth = 0;
+    Labels labels{0};
+    std::int32_t id(int layer, const glm::ivec2& pixel) const
+    {
+        return static_cast<std::int32_t>((static_cast<std::size_t>(layer) * height + (pixel.y - lo.y)) * width + (pixel.x - lo.x));
+    }
+};
+
+SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below, const PlaneLoops& above)
+{
     // The layers: both planes and every voxel plane strictly between them (the field is linear
     // in w between voxel planes, so these decide connectivity along w).
     std::vector<double> layers{below.w};
     for (double w = std::floor(below.w) + 1.0; w < above.w; w += 1.0)
         if (w > below.w) layers.push_back(w);
     layers.push_back(above.w);
-    const int depth = static_cast<int>(layers.size());
-
-    // The pixels: every loop of both planes, with a margin that grows with the slab's
-    // thickness (a tube leaning out between the planes); grown again if the inside touches it.
+    std::vector<SlicePlane> planes;
+    for (double w : layers) planes.emplace_back(volume, plan, w);
+    // The pixels: every loop of both planes, with a margin that grows with the slab's thickness (a
+    // tube leaning out between the planes), doubled while the inside touches the box's rim.
     PixelBox box{glm::ivec2(std::numeric_limits<int>::max()), glm::ivec2(std::numeric_limits<int>::min())};
     for (const PlaneLoops* plane : {&below, &above})
         for (const BoundaryLoop* loop : plane->loops) {
@@ -210,63 +217,70 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
             box.max = glm::max(box.max, b.max);
         }
     int margin = 2 + static_cast<int>(std::ceil(2.0 * (above.w - below.w)));
-    std::vector<SlicePlane> planes;
-    for (double w : layers) planes.emplace_back(volume, plan, w);
-    for (;;) {
-        const glm::ivec2 lo = glm::max(box.min - margin, plan.pixelMin), hi = glm::min(box.max + margin, plan.pixelMax);
-        const int width = hi.x - lo.x + 1, height = hi.y - lo.y + 1;
-        const std::size_t layerSize = static_cast<std::size_t>(width) * height;
-        std::vector<std::uint8_t> inside(layerSize * depth);
-        bool touchesEdge = false;
-        for (int l = 0; l < depth; ++l)
-            for (int y = 0; y < height; ++y)
-                for (int x = 0; x < width; ++x) {
-                    const bool in = planes[l].inside(lo.x + x, lo.y + y);
-                    inside[l * layerSize + static_cast<std::size_t>(y) * width + x] = in;
-                    const bool edge = x == 0 || y == 0 || x + 1 == width || y + 1 == height;
-                    touchesEdge = touchesEdge || (in && edge && (lo.x + x > plan.pixelMin.x || true));
+    SlabLabels slab;
+    slab.depth = static_cast<int>(layers.size());
+    std::vector<std::uint8_t> inside;
+    for (bool touches = true; touches; margin *= 2) {
+        slab.lo = glm::max(box.min - margin, plan.pixelMin);
+        const glm::ivec2 hi = glm::min(box.max + margin, plan.pixelMax);
+        slab.width = hi.x - slab.lo.x + 1;
+        slab.height = hi.y - slab.lo.y + 1;
+        inside.assign(static_cast<std::size_t>(slab.width) * slab.height * slab.depth, 0);
+        touches = false;
+        for (int l = 0; l < slab.depth; ++l)
+            for (int v = slab.lo.y; v <= hi.y; ++v)
+                for (int u = slab.lo.x; u <= hi.x; ++u) {
+                    const bool in = planes[l].inside(u, v);
+                    inside[slab.id(l, {u, v})] = in;
+                    touches = touches || (in && (u == slab.lo.x || v == slab.lo.y || u == hi.x || v == hi.y));
                 }
-        const bool clipped = lo.x == plan.pixelMin.x && lo.y == plan.pixelMin.y && hi.x == plan.pixelMax.x &&
-                             hi.y == plan.pixelMax.y;
-        if (touchesEdge && !clipped) {
-            margin *= 2;
-            continue;
-        }
-        // Label: inside voxels 8-connected in a layer, outside 4-connected, both joined along w;
-        // every outside voxel on the box's rim joins one exterior (node `exterior`).
-        const std::int32_t exterior = static_cast<std::int32_t>(layerSize * depth);
-        Labels labels(layerSize * depth + 1);
-        auto id = [&](int l, int x, int y) { return static_cast<std::int32_t>(l * layerSize + static_cast<std::size_t>(y) * width + x); };
-        for (int l = 0; l < depth; ++l)
-            for (int y = 0; y < height; ++y)
-                for (int x = 0; x < width; ++x) {
-                    const std::int32_t p = id(l, x, y);
-                    const bool in = inside[p];
-                    auto link = [&](int lq, int xq, int yq) {
-                        const std::int32_t q = id(lq, xq, yq);
-                        if (inside[q] == in) labels.join(p, q);
-                    };
-                    if (x + 1 < width) link(l, x + 1, y);
-                    if (y + 1 < height) link(l, x, y + 1);
-                    if (in && y + 1 < height && x + 1 < width) link(l, x + 1, y + 1);
-                    if (in && y + 1 < height && x > 0) link(l, x - 1, y + 1);
-                    if (l + 1 < depth) link(l + 1, x, y);
-                    if (!in && (x == 0 || y == 0 || x + 1 == width || y + 1 == height)) labels.join(p, exterior);
-                }
-        // A loop separates the inside and outside components beside its first crack.
-        std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> pieceOf;
-        auto place = [&](const BoundaryLoop& loop, int layer, int index, bool isBelow) {
-            const auto [in, out] = pixelsBeside(loop);
-            const std::pair<std::int32_t, std::int32_t> key{labels.find(id(layer, in.x - lo.x, in.y - lo.y)),
-                                                            labels.find(id(layer, out.x - lo.x, out.y - lo.y))};
-            const auto [it, added] = pieceOf.insert({key, pieces.size()});
-            if (added) pieces.emplace_back();
-            (isBelow ? pieces[it->second].below : pieces[it->second].above).push_back(index);
-        };
-        for (std::size_t i = 0; i < below.loops.size(); ++i) place(*below.loops[i], 0, static_cast<int>(i), true);
-        for (std::size_t j = 0; j < above.loops.size(); ++j) place(*above.loops[j], depth - 1, static_cast<int>(j), false);
-        break;
+        // The plan's box holds every active voxel: it cannot grow past it.
+        touches = touches && (slab.lo != plan.pixelMin || hi != plan.pixelMax);
     }
+    const std::int32_t exterior = static_cast<std::int32_t>(inside.size());
+    slab.labels = Labels(inside.size() + 1);
+    for (int l = 0; l < slab.depth; ++l)
+        for (int y = 0; y < slab.height; ++y)
+            for (int x = 0; x < slab.width; ++x) {
+                const glm::ivec2 pixel = slab.lo + glm::ivec2(x, y);
+                const std::int32_t p = slab.id(l, pixel);
+                const bool in = inside[p];
+                auto link = [&](int layer, const glm::ivec2& offset) {
+                    const std::int32_t q = slab.id(layer, pixel + offset);
+                    if (inside[q] == in) slab.labels.join(p, q);
+                };
+                if (x + 1 < slab.width) link(l, {1, 0});
+                if (y + 1 < slab.height) link(l, {0, 1});
+                if (in && y + 1 < slab.height && x + 1 < slab.width) link(l, {1, 1});
+                if (in && y + 1 < slab.height && x > 0) link(l, {-1, 1});
+                if (l + 1 < slab.depth) link(l + 1, {0, 0});
+                if (!in && (x == 0 || y == 0 || x + 1 == slab.width || y + 1 == slab.height)) slab.labels.join(p, exterior);
+            }
+    return slab;
+}
+
+} // namespace
+
+std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                          const PlaneLoops& above)
+{
+    std::vector<SlabPiece> pieces;
+    if (simpleBands(below, above, pieces)) return pieces;
+    pieces.clear();
+    if (below.loops.empty() && above.loops.empty()) return pieces;
+    SlabLabels slab = labelSlab(volume, plan, below, above);
+    // A loop separates the inside and outside regions beside its first crack; loops separating
+    // the same two lie on one piece.
+    std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> pieceOf;
+    auto place = [&](const BoundaryLoop& loop, int layer, int index, bool isBelow) {
+        const auto [in, out] = pixelsBeside(loop);
+        const std::pair<std::int32_t, std::int32_t> key{slab.labels.find(slab.id(layer, in)), slab.labels.find(slab.id(layer, out))};
+        const auto [it, added] = pieceOf.insert({key, pieces.size()});
+        if (added) pieces.emplace_back();
+        (isBelow ? pieces[it->second].below : pieces[it->second].above).push_back(index);
+    };
+    for (std::size_t i = 0; i < below.loops.size(); ++i) place(*below.loops[i], 0, static_cast<int>(i), true);
+    for (std::size_t j = 0; j < above.loops.size(); ++j) place(*above.loops[j], slab.depth - 1, static_cast<int>(j), false);
     for (SlabPiece& piece : pieces) piece.kind = classify(piece, below, above);
     return pieces;
 }
