@@ -245,7 +245,7 @@ void Reconstruction::correspond()
 void Reconstruction::resolveEvents()
 {
     // Tubes grow along bands; every other piece ends the tubes of its lower contours and starts
-    // tubes for its upper ones. A fork or merge that splits into arcs joins them by a junction.
+    // tubes for its upper ones. A junction joins those ends where it splits into arcs.
     std::vector<std::vector<int>> tubeOf(mLoops.size());
     for (std::size_t s = 0; s < mLoops.size(); ++s) tubeOf[s].assign(mLoops[s].size(), -1);
     auto startTube = [&](int s, int l) {
@@ -269,64 +269,59 @@ void Reconstruction::resolveEvents()
                 tubeOf[slab.above][piece.above[0]] = t;
                 continue;
             }
-            if (piece.kind == EventKind::Fork || piece.kind == EventKind::Merge) {
-                const bool fork = piece.kind == EventKind::Fork;
-                const int s1 = fork ? slab.below : slab.above, s2 = fork ? slab.above : slab.below;
-                const std::vector<int>& ones = fork ? piece.below : piece.above;
-                Junction junction;
-                junction.kind = piece.kind;
-                for (int l : ones) (ones.size() == 2 && mLoops[s1][l].loop.hole() ? junction.inner : junction.single) = {s1, l};
-                for (int l : fork ? piece.above : piece.below) junction.many.push_back({s2, l});
-                if (splitJunction(junction)) {
-                    const int id = static_cast<int>(mJunctions.size());
-                    std::vector<std::pair<int, int>> lower = junction.many, upper = junction.many;
-                    (fork ? lower : upper).clear();
-                    for (int l : ones) (fork ? lower : upper).push_back({s1, l});
-                    for (const auto& [s, l] : lower) mTubes[tubeOf[s][l]].top.junction = id;
-                    for (const auto& [s, l] : upper) mTubes[startTube(s, l)].bottom.junction = id;
-                    ++(fork ? mStats.forks : mStats.merges);
-                    mStats.saddles += static_cast<int>(junction.many.size() + ones.size()) - 2;
-                    mJunctions.push_back(std::move(junction));
-                    continue;
-                }
-                ++mStats.unresolvedJunctions;
-            }
-            if (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2) {
-                // A wall with several holes: its polygon is split into one arc per hole, closed
-                // through a hub in the plane, and each arc tiled to its hole: a face with holes.
-                const bool top = piece.above.empty();
-                const int s = top ? slab.below : slab.above;
-                const std::vector<int>& loops = top ? piece.below : piece.above;
-                Junction junction;
-                junction.kind = EventKind::Rim;
-                junction.top = top;
-                for (int l : loops) (mLoops[s][l].loop.hole() ? junction.many.emplace_back(s, l) : junction.single = {s, l});
-                if (splitJunction(junction)) {
-                    const int id = static_cast<int>(mJunctions.size());
-                    for (int l : loops) (top ? mTubes[tubeOf[s][l]].top : mTubes[startTube(s, l)].bottom).junction = id;
-                    ++mStats.rims;
-                    mStats.saddles += static_cast<int>(junction.many.size()) - 1;
-                    mJunctions.push_back(std::move(junction));
-                    continue;
-                }
-                ++mStats.unresolvedJunctions;
+            const bool joins = piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
+                               (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2);
+            Junction junction;
+            if (joins && makeJunction(slab, piece, junction)) {
+                const int id = static_cast<int>(mJunctions.size());
+                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.junction = id;
+                for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id;
+                mStats.forks += piece.kind == EventKind::Fork ? 1 : 0;
+                mStats.merges += piece.kind == EventKind::Merge ? 1 : 0;
+                mStats.rims += piece.kind == EventKind::Rim ? 1 : 0;
+                // A junction of c contours is a sphere with c holes less one disc (Euler 2 - c):
+                // c - 2 saddles, so that caps - saddles stays the mesh's Euler characteristic.
+                mStats.saddles += static_cast<int>(piece.below.size() + piece.above.size()) - 2;
+                mJunctions.push_back(std::move(junction));
+                continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
-            if (piece.kind == EventKind::Unresolved || piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
-                (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2)) {
+            if (joins || piece.kind == EventKind::Unresolved) {
                 Skeleton::Unresolved u{mPositions[slab.below], mPositions[slab.above], 0, 0, 0, 0};
                 for (int l : piece.below) ++(mLoops[slab.below][l].loop.hole() ? u.holesBelow : u.wallsBelow);
                 for (int l : piece.above) ++(mLoops[slab.above][l].loop.hole() ? u.holesAbove : u.wallsAbove);
                 mUnresolved.push_back(u);
             }
+            mStats.unresolvedJunctions += joins ? 1 : 0;
+            mStats.unresolvedEvents += piece.kind == EventKind::Unresolved ? 1 : 0;
             mStats.starts += piece.kind == EventKind::Start ? 1 : 0;
             mStats.ends += piece.kind == EventKind::End ? 1 : 0;
-            mStats.rims += piece.kind == EventKind::Rim ? 1 : 0;
-            mStats.unresolvedEvents += piece.kind == EventKind::Unresolved ? 1 : 0;
+            mStats.rims += piece.kind == EventKind::Rim && !joins ? 1 : 0;
         }
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
     mStats.eventEuler += static_cast<long long>(mLoops[last].size());
+}
+
+bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const
+{
+    junction.kind = piece.kind;
+    if (piece.kind == EventKind::Rim) {
+        // A wall with several holes, in one plane: its polygon is split into one arc per hole,
+        // closed through a hub in the plane, and each arc tiled to its hole: a face with holes.
+        junction.top = piece.above.empty();
+        const int s = junction.top ? slab.below : slab.above;
+        for (int l : junction.top ? piece.below : piece.above)
+            (mLoops[s][l].loop.hole() ? junction.many.emplace_back(s, l) : junction.single = {s, l});
+        return splitJunction(junction);
+    }
+    // A fork's one side lies below, a merge's above: one contour, or a ring (a wall and its hole).
+    const bool fork = piece.kind == EventKind::Fork;
+    const int s1 = fork ? slab.below : slab.above, s2 = fork ? slab.above : slab.below;
+    const std::vector<int>& ones = fork ? piece.below : piece.above;
+    for (int l : ones) (ones.size() == 2 && mLoops[s1][l].loop.hole() ? junction.inner : junction.single) = {s1, l};
+    for (int l : fork ? piece.above : piece.below) junction.many.push_back({s2, l});
+    return splitJunction(junction);
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const

@@ -224,6 +224,7 @@ private:
     void traceSlices();
     void correspond();
     void resolveEvents();
+    bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     bool splitJunction(Junction& junction) const;
     void followCentres();
     void closeEnds();
