@@ -347,7 +347,6 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
                    const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs)
 {
     const int n = static_cast<int>(partners.size());
-    const int m = static_cast<int>(single.size());
     std::vector<OwnerRun> runs = ownerRuns(single, partners);
     auto arcsPerOwner = [&](const std::vector<OwnerRun>& r) {
         std::vector<int> count(n, 0);
@@ -397,19 +396,11 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
     };
     mergeShortestRuns(runs, valid);
     if (runs.empty() || !valid(runs)) return false;
-    const std::vector<int> count = arcsPerOwner(runs);
     arcs.hubbed = onePerOwner(runs);
     std::sort(runs.begin(), runs.end(), [](const OwnerRun& a, const OwnerRun& b) { return a.start < b.start; });
     for (const OwnerRun& r : runs) {
         arcs.cuts.push_back(r.start);
         arcs.owner.push_back(r.owner);
-    }
-    if (!arcs.hubbed) {
-        // A closed arc needs a point between its cuts at every level, whatever its crossings:
-        // its middle polygon point (after its first cut on the ring, even where they coincide).
-        const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
-        for (const OwnerRun& r : runs)
-            if (r.owner != several) arcs.mids.push_back((r.start + r.length / 2) % m);
     }
     return true;
 }

@@ -332,17 +332,36 @@ bool Reconstruction::splitJunction(Junction& junction) const
     const std::vector<glm::dvec2>* inner =
         junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second].view.polygon : nullptr;
     if (!splitIntoArcs(polygon, inner, partners, junction)) return false;
-    if (inner || !junction.hubbed) return true;
-    junction.hub = glm::dvec2(0.0);
-    for (int cut : junction.cuts) junction.hub += polygon[cut] / static_cast<double>(junction.cuts.size());
-    // The hub lies just short of the saddle: inside across a neck, outside across the gap of a C
-    // that closes. Toward the partners' plane the field changes sides at the saddle itself, so
-    // the hub moves there (and stays put if it does not get there).
+    // Hub and chord middles lie just short of the saddle: inside across a neck or a ring's wall,
+    // outside across a gap that closes. Toward the partners' plane the field changes sides at
+    // the saddle itself, so they move there (and stay put if they do not get there).
     const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
     const SlicePlane plane(mVolume, mPlan, w);
-    junction.hubW = w;
-    const double side = plane.sampleAt(junction.hub, w) < 0.0 ? 1.0 : -1.0;
-    findApex(plane, junction.hub, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), junction.hubW, side);
+    auto ontoSaddle = [&](const glm::dvec2& point) {
+        double wSaddle = w;
+        const double side = plane.sampleAt(point, w) < 0.0 ? 1.0 : -1.0;
+        findApex(plane, point, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), wSaddle, side);
+        return wSaddle;
+    };
+    const std::size_t n = junction.cuts.size();
+    if (junction.hubbed && !inner) {
+        junction.hub = glm::dvec2(0.0);
+        for (int cut : junction.cuts) junction.hub += polygon[cut] / static_cast<double>(n);
+        junction.hubW = ontoSaddle(junction.hub);
+        return true;
+    }
+    junction.hubbed = false;
+    std::vector<int> arcs(junction.many.size(), 0);
+    for (int owner : junction.owner) ++arcs[owner];
+    for (std::size_t a = 0; a < n; ++a) {
+        // A ring's chord k + 1 runs from the wall's cut k + 1 to the hole's; a gap's from cut a + 1
+        // back to cut a.
+        if (!inner && arcs[junction.owner[a]] != 1) continue;
+        const std::size_t b = (a + 1) % n;
+        const glm::dvec2 middle = 0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]]));
+        junction.chordArcs.push_back(static_cast<int>(a));
+        junction.chordMiddles.push_back(planeToIndex(mPlan.axis, middle, ontoSaddle(middle)));
+    }
     return true;
 }
 
@@ -825,11 +844,11 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const int single = memberOf[junction.single.first][junction.single.second];
         firstCutOf[j] = vertexCount;
         for (int cut : junction.cuts) extras[single].push_back({cut, vertexCount++});
-        for (int mid : junction.mids) extras[single].push_back({mid, vertexCount++});
         if (junction.inner.first >= 0)
             for (int cut : junction.innerCuts)
                 extras[memberOf[junction.inner.first][junction.inner.second]].push_back({cut, vertexCount++});
-        if (junction.hubbed) hubOf[j] = vertexCount++;
+        hubOf[j] = vertexCount; // the hub, or the first chord middle
+        vertexCount += junction.hubbed ? 1 : static_cast<std::uint32_t>(junction.chordMiddles.size());
     }
     mesh.vertices.resize(vertexCount);
     auto toWorld = [&](const glm::dvec2& uv, int plane) {
@@ -844,9 +863,12 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
         for (const Extra& e : extras[i]) mesh.vertices[e.id] = toWorld(mLoops[m.slice][m.loop].view.polygon[e.point], m.slice);
     });
-    for (std::size_t j = 0; j < mJunctions.size(); ++j)
-        if (mJunctions[j].hubbed)
-            mesh.vertices[hubOf[j]] = mVolume.indexToWorld(planeToIndex(mPlan.axis, mJunctions[j].hub, mJunctions[j].hubW));
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) {
+        const Junction& junction = mJunctions[j];
+        if (junction.hubbed) mesh.vertices[hubOf[j]] = mVolume.indexToWorld(planeToIndex(mPlan.axis, junction.hub, junction.hubW));
+        for (std::size_t c = 0; c < junction.chordMiddles.size(); ++c)
+            mesh.vertices[hubOf[j] + c] = mVolume.indexToWorld(junction.chordMiddles[c]);
+    }
 
     // A contour's ring: its crossings in walk order with its junction vertices merged in by their
     // polygon point (integers: segment indices); after[k] lists those between crossings k and k+1.
@@ -953,6 +975,9 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             const std::vector<glm::dvec3> b(first + m.first, first + m.first + m.contour->crossings.size());
             ToroidalStats stats;
             band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+            // A strip that fans one point over the whole other contour is no manifold (the
+            // oblique tube's tiny sections with --tiler optimal, before this).
+            band = withoutFullFans(band, previousCount, static_cast<std::uint32_t>(b.size()));
             bandBytes[i] = stats.bytes;
         }
         // Band-local indices: the previous contour's vertices, then this one's.
@@ -1043,11 +1068,11 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
                 if (p == to) break;
             }
         };
-        // A ring's hole: its cut k is vertex firstCutOf + n + mids + k; arc k is appended from
-        // cut k + 1 back to cut k (the ring's side of the hole on its left).
+        // A ring's hole: its cut k is vertex firstCutOf + n + k; arc k is appended from cut k + 1
+        // back to cut k (the ring's side of the hole on its left).
         const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberOf[junction.inner.first][junction.inner.second]) : Ring{};
         auto appendInnerArcBackward = [&](std::vector<std::uint32_t>& part, std::size_t a) {
-            const std::uint32_t first = firstCutOf[j] + static_cast<std::uint32_t>(n + junction.mids.size());
+            const std::uint32_t first = firstCutOf[j] + static_cast<std::uint32_t>(n);
             auto at = [&](std::size_t k) {
                 return static_cast<std::size_t>(std::find(innerRing.ids.begin(), innerRing.ids.end(), first + static_cast<std::uint32_t>(k)) -
                                                 innerRing.ids.begin());
@@ -1058,15 +1083,28 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
                 if (p == to) break;
             }
         };
+        auto chordMiddleOf = [&](std::size_t a) { // the chord closing arc a, or -1
+            const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
+            return at == junction.chordArcs.end() ? -1 : static_cast<int>(hubOf[j] + (at - junction.chordArcs.begin()));
+        };
         for (std::size_t k = 0; k < junction.many.size(); ++k) {
-            // Partner k's loop: its arcs in walk order, each closed through the hub, or joined to
-            // the next by the chord across the arc between them (which closes that arc).
+            // Partner k's loop: its arcs in walk order, each closed through the hub; or for a gap's
+            // arc by its chord, which the partner owning the arcs around it crosses the other way;
+            // or for a ring's sector the wall's arc, the chord at its end, the hole's arc back and
+            // the chord at its start. A chord passes through its middle vertex.
             std::vector<std::uint32_t> part;
-            for (std::size_t a = 0; a < n; ++a)
-                if (junction.owner[a] == static_cast<int>(k)) {
-                    appendArc(part, a);
-                    if (junction.inner.first >= 0) appendInnerArcBackward(part, a);
+            for (std::size_t a = 0; a < n; ++a) {
+                if (junction.owner[a] != static_cast<int>(k)) continue;
+                appendArc(part, a);
+                if (junction.inner.first >= 0) {
+                    part.push_back(static_cast<std::uint32_t>(chordMiddleOf(a)));
+                    appendInnerArcBackward(part, a);
+                    part.push_back(static_cast<std::uint32_t>(chordMiddleOf((a + n - 1) % n)));
+                } else if (!junction.hubbed) {
+                    const int own = chordMiddleOf(a), next = chordMiddleOf((a + 1) % n);
+                    part.push_back(static_cast<std::uint32_t>(own >= 0 ? own : next));
                 }
+            }
             if (junction.hubbed) part.push_back(hubOf[j]);
             const auto [ps, pl] = junction.many[k];
             const std::vector<std::uint32_t> partner = ringOf(memberOf[ps][pl]).ids;

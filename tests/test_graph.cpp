@@ -255,6 +255,27 @@ TEST(Graph, JunctionsDoNotDependOnTheThreads)
     }
 }
 
+TEST(Graph, BaselineTilersCloseEveryLevelToo)
+{
+    // The baseline tilers on the same skeleton: a strip that fans one point over a whole contour
+    // (the oblique tube's sections of a few pixels, with the optimal tiler) repeats a spanning
+    // edge in four triangles; it is broken, so every level is still a closed 2-manifold with the
+    // phantom's Euler characteristic.
+    for (const char* name : {"oblique", "trifurcation"})
+        for (TilerKind tiler : {TilerKind::Optimal, TilerKind::Greedy}) {
+            SCOPED_TRACE(std::string(name) + (tiler == TilerKind::Optimal ? " optimal" : " greedy"));
+            MeshOptions options;
+            options.tiler = tiler;
+            options.levels = 2;
+            const Reconstruction reconstruction(test::cachedSample(name), options);
+            for (int level = 0; level < 2; ++level) {
+                const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
+                EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
+                EXPECT_EQ(t.euler, infoOf(name).euler);
+            }
+        }
+}
+
 // Each phantom's expected numbers are its own (samples/phantoms.cpp derives them, and
 // Samples.KnownTopologyMatchesTheIsosurface checks them against volumeToMesh).
 TEST(Graph, YBranch) { expectIsosurfaceTopology("ybranch"); }

@@ -104,8 +104,6 @@ struct JunctionArcs {
                                 // fork); else one partner owns every other arc and the others one
                                 // each (a C whose gaps close around holes): chords across the
                                 // gaps close those arcs and join the first partner's
-    std::vector<int> mids;      // without a hub: the middle point of each arc a chord closes,
-                                // so that it has three points at every level
     std::vector<int> innerCuts; // a ring's hole, split the same way: its arc k (from innerCuts[k]
                                 // to innerCuts[k + 1]) also goes to owner[k]
 };

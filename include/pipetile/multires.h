@@ -214,6 +214,13 @@ private:
         double hubW = 0.0;                         // their mean, moved along the axis toward the
                                                    // partners onto the surface (the crotch), if it
                                                    // gets there
+        std::vector<int> chordArcs;                // no hub: the arcs a chord closes (a gap's
+                                                   // arc; for a ring every arc, closed from cut
+                                                   // k + 1 of the wall to the hole's, and back)
+        std::vector<glm::dvec3> chordMiddles;      // index space, per chord: a vertex in its middle,
+                                                   // moved onto the surface like the hub (a chord
+                                                   // never joins two cuts directly, so no cap of
+                                                   // the same contour can share its edge)
     };
 
     // The stages of the constructor, in order.
