@@ -1047,10 +1047,10 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
         if (members[i].endsTube) emitCap(i, true);
     }
-    // Junctions: arc a of the single contour, from its cut a to cut a + 1 and through the hub,
-    // is tiled to its partner's ring by the minimum-area acceptable surface. Arcs share the
-    // chords to the hub, each once in either direction, so the pieces join into one manifold
-    // with n - 1 saddles.
+    // Junctions: each partner's loop (its arcs of the single contour, closed through the hub or
+    // by chords; for a ring, its sector) is tiled to the partner's ring by the minimum-area
+    // acceptable surface. Loops share each chord once in either direction, so the pieces join
+    // into one manifold with c - 2 saddles for c contours.
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
         const int single = memberOf[junction.single.first][junction.single.second];
