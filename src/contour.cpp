@@ -187,6 +187,67 @@ bool insidePolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p)
 // The enclosed pixel farthest from the boundary, by a 3-4 chamfer distance over the loop's box,
 // among those inside the marching-squares polygon (in a sliver a pixel or two wide, the deepest
 // pixel centre can lie outside it); the centroid if there is none.
+// The pixels a loop encloses, row by row: row v (from `firstRow`) holds sorted x positions of the
+// vertical cracks it crosses, each pair [x0, x1) a run of enclosed pixels.
+struct PixelRuns {
+    int firstRow = 0;
+    std::vector<std::vector<int>> rows;
+};
+
+PixelRuns pixelRuns(const BoundaryLoop& loop)
+{
+    PixelRuns runs;
+    int lo = loop.corners[0].y, hi = lo;
+    for (const glm::ivec2& c : loop.corners) { lo = std::min(lo, c.y); hi = std::max(hi, c.y); }
+    runs.firstRow = lo;
+    runs.rows.resize(static_cast<std::size_t>(hi - lo));
+    // Corners (i, v) -> (i, v + 1) or back form a vertical crack that row v crosses.
+    const std::size_t m = loop.corners.size();
+    for (std::size_t k = 0; k < m; ++k) {
+        const glm::ivec2 a = loop.corners[k], b = loop.corners[(k + 1) % m];
+        if (a.x == b.x) runs.rows[std::min(a.y, b.y) - lo].push_back(a.x);
+    }
+    for (std::vector<int>& row : runs.rows) std::sort(row.begin(), row.end());
+    return runs;
+}
+
+} // namespace
+
+long long overlapPixels(const BoundaryLoop& a, const BoundaryLoop& b, const glm::ivec2& shift)
+{
+    if (a.corners.empty() || b.corners.empty()) return 0;
+    const PixelRuns ra = pixelRuns(a), rb = pixelRuns(b);
+    long long common = 0;
+    for (std::size_t y = 0; y < ra.rows.size(); ++y) {
+        const long long yb = ra.firstRow + static_cast<long long>(y) - shift.y - rb.firstRow;
+        if (yb < 0 || yb >= static_cast<long long>(rb.rows.size())) continue;
+        const std::vector<int>& x = ra.rows[y];
+        const std::vector<int>& z = rb.rows[static_cast<std::size_t>(yb)];
+        // Merge the two run lists; z's runs moved by shift.x.
+        for (std::size_t i = 0, j = 0; i + 1 < x.size() && j + 1 < z.size();) {
+            const int lo = std::max(x[i], z[j] + shift.x), hi = std::min(x[i + 1], z[j + 1] + shift.x);
+            if (hi > lo) common += hi - lo;
+            if (x[i + 1] < z[j + 1] + shift.x) i += 2; else j += 2;
+        }
+    }
+    return common;
+}
+
+double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& p)
+{
+    double nearest = std::numeric_limits<double>::infinity();
+    const std::size_t m = loop.points.size();
+    for (std::size_t i = 0; i < m; ++i) {
+        const glm::dvec2 a = loop.points[i], ab = loop.points[(i + 1) % m] - a;
+        const double len2 = glm::dot(ab, ab);
+        const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+        nearest = std::min(nearest, glm::length(a + t * ab - p));
+    }
+    return nearest;
+}
+
+namespace {
+
 glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     glm::ivec2 lo = loop.corners[0], hi = loop.corners[0];
@@ -195,19 +256,13 @@ glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near)
     const glm::ivec2 origin = lo - 1;
     const int w = hi.x - lo.x + 2, h = hi.y - lo.y + 2;
     std::vector<int> dist(static_cast<std::size_t>(w) * h, 0);
-    // Row v crosses the vertical cracks at x = i - 0.5 of corners (i, v) -> (i, v + 1) or back;
-    // pixels between pairs of them (sorted) are enclosed.
-    std::vector<std::vector<int>> rowCracks(h);
-    const std::size_t m = loop.corners.size();
-    for (std::size_t k = 0; k < m; ++k) {
-        const glm::ivec2 a = loop.corners[k], b = loop.corners[(k + 1) % m];
-        if (a.x == b.x) rowCracks[std::min(a.y, b.y) - origin.y].push_back(a.x);
-    }
+    const PixelRuns runs = pixelRuns(loop);
     const int far = std::numeric_limits<int>::max() / 2;
-    for (int y = 0; y < h; ++y) {
-        std::sort(rowCracks[y].begin(), rowCracks[y].end());
-        for (std::size_t k = 0; k + 1 < rowCracks[y].size(); k += 2)
-            for (int u = rowCracks[y][k]; u < rowCracks[y][k + 1]; ++u) dist[y * w + (u - origin.x)] = far;
+    for (std::size_t r = 0; r < runs.rows.size(); ++r) {
+        const int y = runs.firstRow + static_cast<int>(r) - origin.y;
+        const std::vector<int>& row = runs.rows[r];
+        for (std::size_t k = 0; k + 1 < row.size(); k += 2)
+            for (int u = row[k]; u < row[k + 1]; ++u) dist[y * w + (u - origin.x)] = far;
     }
     auto relax = [&](int x, int y, int dx, int dy, int cost) {
         const int nx = x + dx, ny = y + dy;
@@ -647,9 +702,14 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
                       image.origin + glm::ivec2(image.width, image.height));
 }
 
+bool liesInside(const BoundaryLoop& loop, const glm::dvec2& point)
+{
+    return encloses(loop, point) && insidePolygon(loop.points, point);
+}
+
 bool centroidInside(const BoundaryLoop& loop)
 {
-    return encloses(loop, loop.centroid) && insidePolygon(loop.points, loop.centroid);
+    return liesInside(loop, loop.centroid);
 }
 
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near)
@@ -799,41 +859,72 @@ RaySet RaySet::next() const
     return addedRaySet(baseRays, level + 1, std::move(fine));
 }
 
+namespace {
+
+// How far the walk from crossing k to crossing k + 1 (polygon points a.segment + 1 .. b.segment)
+// strays from the chord between them, squared, and on which side of crossing k's ray the
+// farthest point lies (> 0: counterclockwise, in sector a.ray).
+std::pair<double, double> strayFromChord(const Contour& contour, const LoopView& view, std::size_t k)
+{
+    const std::size_t count = contour.crossings.size(), m = view.polygon.size();
+    const Crossing& a = contour.crossings[k];
+    const Crossing& b = contour.crossings[(k + 1) % count];
+    const glm::dvec2 chord = b.point - a.point;
+    const double chord2 = glm::dot(chord, chord);
+    const glm::dvec2 d = a.point - contour.center; // along the ray
+    double farthest2 = 0.0, side = 0.0;
+    for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
+        const glm::dvec2 p = view.polygon[i];
+        const double s = chord2 > 0.0 ? std::clamp(glm::dot(p - a.point, chord) / chord2, 0.0, 1.0) : 0.0;
+        const glm::dvec2 off = p - (a.point + s * chord);
+        const double distance2 = glm::dot(off, off);
+        if (distance2 > farthest2) {
+            farthest2 = distance2;
+            side = d.x * (p.y - contour.center.y) - d.y * (p.x - contour.center.x);
+        }
+        if (i == static_cast<std::size_t>(b.segment)) break;
+    }
+    return {farthest2, side};
+}
+
+std::vector<int> sortedOnce(std::vector<int> sectors)
+{
+    std::sort(sectors.begin(), sectors.end());
+    sectors.erase(std::unique(sectors.begin(), sectors.end()), sectors.end());
+    return sectors;
+}
+
+} // namespace
+
 std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, double tolerance)
 {
     std::vector<int> sectors;
     const std::size_t count = contour.crossings.size();
     const int n = contour.rays.count();
     if (count <= static_cast<std::size_t>(n)) return sectors; // one crossing per ray: no fold
-    const std::size_t m = view.polygon.size();
-    const double tolerance2 = tolerance * tolerance;
     for (std::size_t k = 0; k < count; ++k) {
         const Crossing& a = contour.crossings[k];
         const Crossing& b = contour.crossings[(k + 1) % count];
         if (a.ray != b.ray || a.segment == b.segment) continue;
-        // The walk between them: polygon points a.segment + 1 .. b.segment. How far from the
-        // chord ab, and on which side of the ray (counterclockwise: sector a.ray).
-        const glm::dvec2 chord = b.point - a.point;
-        const double chord2 = glm::dot(chord, chord);
-        const glm::dvec2 d = a.point - contour.center; // along the ray
-        double farthest2 = 0.0, side = 0.0;
-        for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
-            const glm::dvec2 p = view.polygon[i];
-            const double s = chord2 > 0.0 ? std::clamp(glm::dot(p - a.point, chord) / chord2, 0.0, 1.0) : 0.0;
-            const glm::dvec2 off = p - (a.point + s * chord);
-            const double distance2 = glm::dot(off, off);
-            if (distance2 > farthest2) {
-                farthest2 = distance2;
-                side = d.x * (p.y - contour.center.y) - d.y * (p.x - contour.center.x);
-            }
-            if (i == static_cast<std::size_t>(b.segment)) break;
-        }
-        if (farthest2 <= tolerance2) continue;
-        sectors.push_back(side > 0.0 ? a.ray : (a.ray + n - 1) % n);
+        const auto [farthest2, side] = strayFromChord(contour, view, k);
+        if (farthest2 > tolerance * tolerance) sectors.push_back(side > 0.0 ? a.ray : (a.ray + n - 1) % n);
     }
-    std::sort(sectors.begin(), sectors.end());
-    sectors.erase(std::unique(sectors.begin(), sectors.end()), sectors.end());
-    return sectors;
+    return sortedOnce(std::move(sectors));
+}
+
+std::vector<int> strayingChords(const Contour& contour, const LoopView& view, double tolerance)
+{
+    std::vector<int> sectors;
+    const std::size_t count = contour.crossings.size();
+    const int n = contour.rays.count();
+    for (std::size_t k = 0; k < count; ++k) {
+        const Crossing& a = contour.crossings[k];
+        const Crossing& b = contour.crossings[(k + 1) % count];
+        if (a.ray == b.ray || a.segment == b.segment) continue;
+        if (strayFromChord(contour, view, k).first > tolerance * tolerance)
+            sectors.push_back((b.ray + n - a.ray) % n == 1 ? a.ray : b.ray);
+    }
+    return sortedOnce(std::move(sectors));
 }
 
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)

@@ -367,20 +367,42 @@ bool Reconstruction::splitJunction(Junction& junction) const
 
 void Reconstruction::followCentres()
 {
+    // Rays pair by index from each section's own central point, so a band is only as good as the
+    // agreement of its two centres. Along a tube, each centre follows its predecessor's, moved as
+    // the section moves: by the centroid's shift where that keeps more of the shape in register
+    // (a tube that travels), not at all where standing still keeps more (a tube that grows an arm:
+    // the T's side branch pulls the centroid 8 voxels along it at its first section while the
+    // trunk stays put, and rays from there crossed the trunk's band 2.7 voxels inside it).
     // A C-shaped section's central point is a pixel on the ridge along its arc, where the tie
     // falls by scan order: consecutive sections could take points across the C from each other,
-    // and their bands then cross its gap (rays pair by index from each centre). Along a tube,
-    // each such section takes the ridge point nearest its predecessor's centre instead.
+    // and their bands then cross its gap. Each such section takes the ridge point nearest its
+    // predecessor's centre instead.
     for (const Tube& tube : mTubes)
         for (std::size_t k = 1; k < tube.members.size(); ++k) {
             SliceLoop& loop = mLoops[tube.members[k].first][tube.members[k].second];
-            if (centroidInside(loop.loop)) continue;
-            const glm::dvec2 previous = mLoops[tube.members[k - 1].first][tube.members[k - 1].second].view.center;
-            LoopView view = viewFrom(loop.loop, centralPoint(loop.loop, &previous));
-            if (view.winding != 1 || view.center == loop.view.center) continue;
+            const SliceLoop& before = mLoops[tube.members[k - 1].first][tube.members[k - 1].second];
+            const glm::dvec2 centre = centroidInside(loop.loop) ? followedCentre(before, loop)
+                                                                : centralPoint(loop.loop, &before.view.center);
+            if (centre == loop.view.center) continue;
+            LoopView view = viewFrom(loop.loop, centre);
+            if (view.winding != 1) continue;
             loop.profile = radialProfile(view, profileDirections());
             loop.view = std::move(view);
         }
+}
+
+glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLoop& loop)
+{
+    const glm::dvec2 shift = loop.loop.centroid - before.loop.centroid;
+    const glm::ivec2 step(glm::round(shift));
+    const bool travels = step == glm::ivec2(0) ||
+                         overlapPixels(loop.loop, before.loop, step) >= overlapPixels(loop.loop, before.loop, glm::ivec2(0));
+    const glm::dvec2 candidate = travels ? loop.loop.centroid + (before.view.center - before.loop.centroid) : before.view.center;
+    // A followed centre must stay clear of the boundary (by a pixel, or as far as the centroid
+    // is), or its rays would crowd one side of the section.
+    const double clearance = std::min(1.0, boundaryClearance(loop.loop, loop.loop.centroid));
+    return liesInside(loop.loop, candidate) && boundaryClearance(loop.loop, candidate) >= clearance ? candidate
+                                                                                                  : loop.loop.centroid;
 }
 
 void Reconstruction::closeEnds()
@@ -701,7 +723,7 @@ Reconstruction::Contours Reconstruction::castLevel(int level) const
         for (const SliceLoop& l : mLoops[s])
             contours[s].push_back(l.fromLevel <= level ? castRays(l.view, rays, plane) : Contour{});
     });
-    addFoldRays(contours);
+    addFoldRays(contours, level);
     return contours;
 }
 
@@ -728,23 +750,28 @@ Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse, 
                 contours[s].emplace_back();
         }
     });
-    addFoldRays(contours);
+    addFoldRays(contours, level);
     return contours;
 }
 
-void Reconstruction::addFoldRays(Contours& contours) const
+void Reconstruction::addFoldRays(Contours& contours, int level) const
 {
     // Half a voxel: a smooth tube's top level stays well within it (the phantom's is 0.16 voxel
     // from the isosurface), so a fold chord farther than that from its boundary stands out.
+    // The top level, which must stay within a voxel, halves sectors whose edges cut corners too.
     constexpr double kFoldTolerance = 0.5;
+    const bool top = level == mOptions.levels - 1;
     const std::size_t groups = mTubes.size(); // group ids are tube indices
     for (int round = 0; round <= RaySet::kFoldDepth; ++round) {
         std::vector<std::vector<std::vector<int>>> flagged(mLoops.size()); // per plane, per loop
         forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
             for (std::size_t l = 0; l < mLoops[s].size(); ++l)
-                if (mLoops[s][l].group >= 0 && !contours[s][l].crossings.empty())
+                if (mLoops[s][l].group >= 0 && !contours[s][l].crossings.empty()) {
                     flagged[s].push_back(hiddenFolds(contours[s][l], mLoops[s][l].view, kFoldTolerance));
-                else
+                    if (!top) continue;
+                    const std::vector<int> cut = strayingChords(contours[s][l], mLoops[s][l].view, kFoldTolerance);
+                    flagged[s].back().insert(flagged[s].back().end(), cut.begin(), cut.end());
+                } else
                     flagged[s].emplace_back();
         });
         std::vector<std::vector<int>> sectors(groups);

@@ -131,8 +131,18 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
 /// one nearest `near` of those about as deep (a C's ridge: so a tube's central points follow it).
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near = nullptr);
 
+/// Whether a point lies inside the region a loop encloses and inside its polygon.
+bool liesInside(const BoundaryLoop& loop, const glm::dvec2& point);
+
 /// Whether the loop's centroid lies inside it (and its polygon): centralPoint() is the centroid.
 bool centroidInside(const BoundaryLoop& loop);
+
+/// How many pixels both loops enclose, `b` moved by `shift` pixels: how much of one section's
+/// shape the next one continues, for a given motion between them.
+long long overlapPixels(const BoundaryLoop& a, const BoundaryLoop& b, const glm::ivec2& shift);
+
+/// Distance from a point to the loop's marching-squares polygon.
+double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& point);
 
 /// Even-odd test: does the loop's polygon enclose the point?
 bool encloses(const BoundaryLoop& loop, const glm::dvec2& point);
@@ -185,6 +195,11 @@ Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const Ray
 /// once each, the sectors (x: from ray x to x+1) where that boundary lies farther than
 /// `tolerance` pixels from its chord; a ray in the middle of each would see it.
 std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, double tolerance);
+
+/// Chords that cut corners: sectors (ascending, once each) where the walk between crossings of
+/// two neighbouring rays strays farther than `tolerance` pixels from the edge joining them (a
+/// branch's rounded tip far from the central point, seen by rays a few voxels apart there).
+std::vector<int> strayingChords(const Contour& contour, const LoopView& view, double tolerance);
 
 /// Edge type from two consecutive crossings (DESIGN.md, Edge types): integers only.
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount);

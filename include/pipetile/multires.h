@@ -172,8 +172,10 @@ private:
     /// that a fold of any of its contours flags, and its contours are refined with the new rays,
     /// until no fold is flagged or the sectors are halved RaySet::kFoldDepth times. A sector's
     /// flag depends on its two rays alone, so the rays added at level L are added again at L+1:
-    /// levels still nest, and a refined level equals the level built from scratch.
-    void addFoldRays(Contours& contours) const;
+    /// levels still nest, and a refined level equals the level built from scratch. The top level
+    /// also halves sectors whose edges cut corners (contour.h, strayingChords); no level is built
+    /// from it, so nesting holds.
+    void addFoldRays(Contours& contours, int level) const;
     LevelMesh assemble(const Contours& contours, int level) const;
 
     static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)
@@ -234,6 +236,7 @@ private:
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     bool splitJunction(Junction& junction) const;
     void followCentres();
+    static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
     void closeEnds();
     void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
