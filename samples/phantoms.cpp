@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <utility>
@@ -533,6 +534,29 @@ DistanceFunction trifurcationDistance()
     };
 }
 
+DistanceFunction partingDistance()
+{
+    // Six capsules, each starting where an earlier one ends (a random tree, written out): at
+    // z = 23 the trunk's first two branches touch along a seam that leaves a one-pixel hole
+    // between them before they part, a ring breaking open into two walls around a hole too small
+    // for each wall to be nearest part of it.
+    // A tree of capsules without a loop: a sphere. Euler 2, 1 component.
+    struct Segment { glm::dvec3 a, b; double radius; };
+    static const Segment segments[] = {
+        {{48.0, 48.0, 10.0}, {67.962, 33.125, 47.977}, 5.396},
+        {{48.0, 48.0, 10.0}, {65.422, 54.790, 31.637}, 6.677},
+        {{48.0, 48.0, 10.0}, {37.183, 45.738, 35.736}, 6.022},
+        {{37.183, 45.738, 35.736}, {54.748, 42.966, 59.453}, 5.622},
+        {{37.183, 45.738, 35.736}, {37.909, 29.450, 69.819}, 5.778},
+        {{54.748, 42.966, 59.453}, {37.118, 33.888, 94.341}, 5.066},
+    };
+    return [](const glm::dvec3& p) {
+        double d = std::numeric_limits<double>::infinity();
+        for (const Segment& s : segments) d = std::min(d, capsuleDistance(p, s.a, s.b, s.radius));
+        return d;
+    };
+}
+
 DistanceFunction ubendDistance()
 {
     // Arms along z through (32, 32) and (64, 32), z in [16, 88], radius 7 (gap 18), joined at the
@@ -784,6 +808,9 @@ const std::vector<SampleEntry>& sampleTable()
         {{"oblique", "40x40x80 thin tube (radius 1.5) at 76 degrees from z, wound in a tight helix",
           {40, 40, 80}, 1.0, 2, 1},
          &obliqueDistance},
+        {{"parting", "96x96x128 tree of six capsules; two branches part through one-pixel holes",
+          {96, 96, 128}, 1.0, 2, 1},
+         &partingDistance},
     };
     return table;
 }

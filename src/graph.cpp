@@ -2,6 +2,8 @@
 
 #include <pipetile/graph.h>
 
+#include <glm/geometric.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -343,6 +345,40 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     return graph;
 }
 
+namespace {
+
+// A hole too small for every partner to be nearest some of it (a pixel-wide gap where two walls
+// are about to part): each cut of the hole is its point nearest the wall's cut, if they come in
+// the same order around.
+bool cutsNearest(const std::vector<glm::dvec2>& single, const std::vector<glm::dvec2>& inner,
+                 const std::vector<OwnerRun>& runs, JunctionArcs& arcs)
+{
+    std::vector<int> innerCuts;
+    for (const OwnerRun& run : runs) {
+        int nearest = 0;
+        for (std::size_t i = 1; i < inner.size(); ++i)
+            if (glm::distance(inner[i], single[run.start]) < glm::distance(inner[nearest], single[run.start]))
+                nearest = static_cast<int>(i);
+        innerCuts.push_back(nearest);
+    }
+    int descents = 0;
+    for (std::size_t k = 0; k < innerCuts.size(); ++k) {
+        const int next = innerCuts[(k + 1) % innerCuts.size()];
+        if (next == innerCuts[k]) return false;
+        descents += next < innerCuts[k] ? 1 : 0;
+    }
+    if (descents != 1) return false;
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+        arcs.cuts.push_back(runs[k].start);
+        arcs.owner.push_back(runs[k].owner);
+        arcs.innerCuts.push_back(innerCuts[k]);
+    }
+    arcs.hubbed = false;
+    return true;
+}
+
+} // namespace
+
 bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm::dvec2>* inner,
                    const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs)
 {
@@ -365,9 +401,10 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
         std::vector<OwnerRun> innerRuns = ownerRuns(*inner, partners);
         mergeShortestRuns(runs, onePerOwner);
         mergeShortestRuns(innerRuns, onePerOwner);
-        if (!onePerOwner(runs) || !onePerOwner(innerRuns)) return false;
+        if (!onePerOwner(runs)) return false;
         for (std::vector<OwnerRun>* r : {&runs, &innerRuns})
             std::sort(r->begin(), r->end(), [](const OwnerRun& x, const OwnerRun& y) { return x.start < y.start; });
+        if (!onePerOwner(innerRuns)) return cutsNearest(single, *inner, runs, arcs);
         const std::size_t shift = static_cast<std::size_t>(
             std::find_if(innerRuns.begin(), innerRuns.end(), [&](const OwnerRun& r) { return r.owner == runs[0].owner; }) - innerRuns.begin());
         for (std::size_t k = 0; k < runs.size(); ++k)

@@ -299,6 +299,10 @@ TEST(Graph, HollowPipe) { expectIsosurfaceTopology("hollow"); }
 // Three generations: forks, and where the branches' sections touch above a fork, a ring that
 // breaks open in two places at once (a wall and its hole against two walls: two sectors).
 TEST(Graph, VesselTree) { expectIsosurfaceTopology("tree"); }
+// Two branches touch along a seam and part through a one-pixel hole: a ring against two walls
+// whose hole is too small for each wall to be nearest part of it (it was capped contour by
+// contour: 4 components, Euler 8).
+TEST(Graph, BranchesPartThroughAPixelHole) { expectIsosurfaceTopology("parting"); }
 // A T whose side branch lies in a slicing plane: the arm grows along its whole length at once.
 // Its first section pulled the centroid 8 voxels along the arm (the trunk's band then ran 2.7
 // voxels inside the trunk), and the arm's rounded tip, 40 voxels from the trunk's centre, falls
