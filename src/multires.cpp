@@ -395,7 +395,10 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
 {
     const glm::dvec2 shift = loop.loop.centroid - before.loop.centroid;
     const glm::ivec2 step(glm::round(shift));
-    const bool travels = step == glm::ivec2(0) ||
+    // A shift under a quarter of the section's radius turns its band by at most about 14
+    // degrees either way: only larger ones are worth telling apart, pixel by pixel.
+    const double radius = std::sqrt(std::abs(loop.loop.area) / kPi);
+    const bool travels = glm::length(shift) < 0.25 * radius || step == glm::ivec2(0) ||
                          overlapPixels(loop.loop, before.loop, step) >= overlapPixels(loop.loop, before.loop, glm::ivec2(0));
     const glm::dvec2 candidate = travels ? loop.loop.centroid + (before.view.center - before.loop.centroid) : before.view.center;
     // A followed centre must stay clear of the boundary (by a pixel, or as far as the centroid
