@@ -347,3 +347,42 @@ TEST(Contour, ViewAnglesAgreeWithAtan2)
         }
     }
 }
+
+TEST(Contour, OverlapCountsThePixelsBothLoopsEnclose)
+{
+    // A 4 x 3 block against itself moved: (4 - |dx|) x (3 - |dy|) pixels, none once it has moved
+    // off. A ring's outer loop encloses its hole's pixels too: 5 x 5.
+    const FieldImage block = binaryImage({0, 0}, {"####", "####", "####"});
+    const std::vector<BoundaryLoop> loops = traceBoundaries(block);
+    ASSERT_EQ(loops.size(), 1u);
+    const BoundaryLoop& a = loops[0];
+    EXPECT_EQ(overlapPixels(a, a, {0, 0}), 12);
+    EXPECT_EQ(overlapPixels(a, a, {1, 0}), 9);
+    EXPECT_EQ(overlapPixels(a, a, {-1, -1}), 6);
+    EXPECT_EQ(overlapPixels(a, a, {0, 2}), 4);
+    EXPECT_EQ(overlapPixels(a, a, {4, 0}), 0);
+    EXPECT_EQ(overlapPixels(a, a, {0, -3}), 0);
+    const FieldImage ring = binaryImage({0, 0}, {"#####", "#...#", "#...#", "#...#", "#####"});
+    const std::vector<BoundaryLoop> rings = traceBoundaries(ring);
+    ASSERT_EQ(rings.size(), 2u);
+    const BoundaryLoop& outer = rings[0].hole() ? rings[1] : rings[0];
+    const BoundaryLoop& hole = rings[0].hole() ? rings[0] : rings[1];
+    EXPECT_EQ(overlapPixels(outer, outer, {0, 0}), 25);
+    EXPECT_EQ(overlapPixels(outer, hole, {0, 0}), 9);
+}
+
+TEST(Contour, StrayingChordsAreTheSectorsWhoseEdgesCutCorners)
+{
+    // A circle of radius 10 seen from its centre: an edge between neighbouring rays n apart
+    // lies 10 (1 - cos(pi / n)) from the arc between them: 0.76 pixel for 8 rays (every sector
+    // past half a pixel, none past one), 0.05 for 32.
+    const glm::dvec2 center(20.0, 20.0);
+    const FieldImage image = circleImage(center, 10.0, 41);
+    const std::vector<BoundaryLoop> loops = traceBoundaries(image);
+    ASSERT_EQ(loops.size(), 1u);
+    const LoopView view = viewFrom(loops[0], center);
+    const Contour eight = castRays(loops[0], center, RaySet{8, 0}, image);
+    EXPECT_EQ(strayingChords(eight, view, 0.5), (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7}));
+    EXPECT_TRUE(strayingChords(eight, view, 1.0).empty());
+    EXPECT_TRUE(strayingChords(castRays(loops[0], center, RaySet{32, 0}, image), view, 0.5).empty());
+}

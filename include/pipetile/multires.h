@@ -236,6 +236,7 @@ private:
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     bool splitJunction(Junction& junction) const;
     void followCentres();
+    /// The central point of `loop` that follows `before`'s along their tube (see followCentres).
     static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
     void closeEnds();
     void groupRays();
