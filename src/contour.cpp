@@ -248,7 +248,9 @@ double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& p)
 
 namespace {
 
-glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near)
+// `depth`: with `near`, the pixels considered are those at least min(deepest - 3, depth) deep
+// (chamfer units, 3 per pixel step).
+glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near, int depth)
 {
     glm::ivec2 lo = loop.corners[0], hi = loop.corners[0];
     for (const glm::ivec2& c : loop.corners) { lo = glm::min(lo, c); hi = glm::max(hi, c); }
@@ -286,13 +288,14 @@ glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near)
         }
     if (!near || best < 0) return point;
     // Along a section of even width the deepest pixels form a ridge, all about as deep: take the
-    // one nearest `near` among those within one pixel step (3) of the deepest.
+    // one nearest `near` among those within one pixel step (3) of the deepest, or as deep as asked.
+    const int floor = std::min(best - 3, depth);
     double nearest = std::numeric_limits<double>::infinity();
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             const glm::dvec2 p(x + origin.x, y + origin.y);
             const glm::dvec2 d = p - *near;
-            if (dist[y * w + x] >= best - 3 && d.x * d.x + d.y * d.y < nearest && insidePolygon(loop.points, p)) {
+            if (dist[y * w + x] >= floor && d.x * d.x + d.y * d.y < nearest && insidePolygon(loop.points, p)) {
                 nearest = d.x * d.x + d.y * d.y;
                 point = p;
             }
@@ -715,7 +718,13 @@ bool centroidInside(const BoundaryLoop& loop)
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     if (loop.corners.empty()) return loop.centroid;
-    return centroidInside(loop) ? loop.centroid : deepestPixel(loop, near);
+    return centroidInside(loop) ? loop.centroid : deepestPixel(loop, near, std::numeric_limits<int>::max());
+}
+
+glm::dvec2 clearPixelNear(const BoundaryLoop& loop, const glm::dvec2& near)
+{
+    constexpr int kTwoPixels = 6;
+    return loop.corners.empty() ? loop.centroid : deepestPixel(loop, &near, kTwoPixels);
 }
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)

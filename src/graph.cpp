@@ -302,7 +302,8 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 }
 
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
-                               double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane)
+                               double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
+                               const std::function<void()>& dropLastPlane)
 {
     ContourGraph graph;
     const int original = static_cast<int>(planes.size());
@@ -316,9 +317,12 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
             if (p.kind == EventKind::Unresolved) return minThickness / 8.0;
             // A face with several holes is flat: it must lie where the wall ends.
             if (p.kind == EventKind::Rim && p.below.size() + p.above.size() > 2) target = minThickness / 4.0;
-            if (p.kind == EventKind::Fork || p.kind == EventKind::Merge ||
-                (p.kind == EventKind::Band && shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange))
+            if (p.kind == EventKind::Fork || p.kind == EventKind::Merge)
                 target = target == 0.0 ? minThickness : std::min(target, minThickness);
+            // A band's change halves with its slab where the shape changes smoothly; where it
+            // does not (the tips of a crescent running along a pipe's open rim), down to a quarter.
+            if (p.kind == EventKind::Band && shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange)
+                target = target == 0.0 ? minThickness / 4.0 : std::min(target, minThickness / 4.0);
         }
         return target;
     };
@@ -333,6 +337,18 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
         const int middle = addPlane(0.5 * (wBelow + wAbove));
         std::vector<SlabPiece> lower = connectThroughSlab(volume, plan, planes[below], planes[middle]);
         std::vector<SlabPiece> upper = connectThroughSlab(volume, plan, planes[middle], planes[above]);
+        // Below minThickness a slab of bands is halved for its shape alone, and a plane added for
+        // shape must not change what the slab's own planes decided: a neck that pinches for an
+        // instant between voxel planes (a random capsule tree: a fork and a merge a quarter voxel
+        // apart, a handle the isosurface does not have) keeps the slab whole.
+        const auto bandsOnly = [](const std::vector<SlabPiece>& ps) {
+            return std::all_of(ps.begin(), ps.end(), [](const SlabPiece& p) { return p.kind == EventKind::Band; });
+        };
+        if (wAbove - wBelow <= minThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper))) {
+            dropLastPlane();
+            graph.slabs.push_back({below, above, std::move(pieces)});
+            return;
+        }
         self(self, below, middle, std::move(lower));
         self(self, middle, above, std::move(upper));
     };

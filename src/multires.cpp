@@ -225,17 +225,27 @@ void Reconstruction::correspond()
         }
     };
     for (std::size_t s = 0; s < planes.size(); ++s) describe(s);
-    SliceCounts dropped;
-    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, [&](double w) {
+    std::vector<SliceCounts> dropped; // per added plane
+    const auto addPlane = [&](double w) {
         mPositions.push_back(w);
-        mLoops.push_back(traceContours(w, dropped)); // moving the outer vector keeps each loop in place
+        dropped.emplace_back();
+        mLoops.push_back(traceContours(w, dropped.back())); // moving the outer vector keeps each loop in place
         planes.emplace_back();
         describe(planes.size() - 1);
         return static_cast<int>(planes.size()) - 1;
-    });
+    };
+    const auto dropLastPlane = [&] {
+        mPositions.pop_back();
+        dropped.pop_back();
+        mLoops.pop_back();
+        planes.pop_back();
+    };
+    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane);
     mStats.addedPlanes = mGraph.addedPlanes;
-    mStats.droppedSmall += dropped.small;
-    mStats.droppedUnwound += dropped.unwound;
+    for (const SliceCounts& counts : dropped) {
+        mStats.droppedSmall += counts.small;
+        mStats.droppedUnwound += counts.unwound;
+    }
     for (std::size_t s = mPlan.positions.size(); s < mLoops.size(); ++s) {
         mStats.contours += static_cast<int>(mLoops[s].size());
         for (const SliceLoop& l : mLoops[s]) mStats.holes += l.loop.hole() ? 1 : 0;
@@ -381,8 +391,7 @@ void Reconstruction::followCentres()
         for (std::size_t k = 1; k < tube.members.size(); ++k) {
             SliceLoop& loop = mLoops[tube.members[k].first][tube.members[k].second];
             const SliceLoop& before = mLoops[tube.members[k - 1].first][tube.members[k - 1].second];
-            const glm::dvec2 centre = centroidInside(loop.loop) ? followedCentre(before, loop)
-                                                                : centralPoint(loop.loop, &before.view.center);
+            const glm::dvec2 centre = followedCentre(before, loop);
             if (centre == loop.view.center) continue;
             LoopView view = viewFrom(loop.loop, centre);
             if (view.winding != 1) continue;
@@ -403,9 +412,16 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     const glm::dvec2 candidate = travels ? loop.loop.centroid + (before.view.center - before.loop.centroid) : before.view.center;
     // A followed centre must stay clear of the boundary (by a pixel, or as far as the centroid
     // is), or its rays would crowd one side of the section.
-    const double clearance = std::min(1.0, boundaryClearance(loop.loop, loop.loop.centroid));
-    return liesInside(loop.loop, candidate) && boundaryClearance(loop.loop, candidate) >= clearance ? candidate
-                                                                                                  : loop.loop.centroid;
+    const bool centroidInside = liesInside(loop.loop, loop.loop.centroid);
+    const double centroidClearance = centroidInside ? boundaryClearance(loop.loop, loop.loop.centroid) : 0.0;
+    if (liesInside(loop.loop, candidate) &&
+        boundaryClearance(loop.loop, candidate) >= (centroidInside ? std::min(1.0, centroidClearance) : 1.0))
+        return candidate;
+    // Otherwise the centroid if it is a pixel clear; if not (it lies outside a C, or hugs the inner
+    // edge of a crescent at a pipe's open rim, where a jump to it turned the crescent's tips
+    // against each other's rays, 1.13 voxels off), the clear pixel nearest where the centre would
+    // have gone.
+    return centroidInside && centroidClearance >= 1.0 ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
 }
 
 void Reconstruction::closeEnds()

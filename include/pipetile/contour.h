@@ -131,6 +131,10 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
 /// one nearest `near` of those about as deep (a C's ridge: so a tube's central points follow it).
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near = nullptr);
 
+/// The enclosed pixel nearest `near`, inside the polygon, among those at least two pixels from the
+/// boundary (chamfer distance), or about as deep as the deepest where none is.
+glm::dvec2 clearPixelNear(const BoundaryLoop& loop, const glm::dvec2& near);
+
 /// Whether a point lies inside the region a loop encloses and inside its polygon.
 bool liesInside(const BoundaryLoop& loop, const glm::dvec2& point);
 

@@ -90,7 +90,8 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 /// `addPlane(w)` traces a new plane and returns its index into `planes` (which it appends to).
 /// Added planes sit at dyadic fractions of their slab, so they never depend on a level.
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
-                               double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane);
+                               double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
+                               const std::function<void()>& dropLastPlane);
 
 /// How a junction's single contour is cut into arcs by its partners (decided once, on the
 /// polygons, so every level has the same cuts). Each point of the polygon goes to the partner
