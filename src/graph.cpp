@@ -309,8 +309,8 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     const int original = static_cast<int>(planes.size());
     // How thin the slab must get: an unresolved piece (two saddles in one slab, say) is halved
     // down to an eighth of minThickness, where events at different heights fall apart; a wall
-    // ending with several holes to a quarter; a fork, merge or fast-changing band down to
-    // minThickness; anything else is left as it is (0).
+    // ending with several holes, or a band changing shape fast, to a quarter; a fork or merge
+    // down to minThickness; anything else is left as it is (0).
     auto thickness = [&](int below, int above, const std::vector<SlabPiece>& pieces) {
         double target = 0.0;
         for (const SlabPiece& p : pieces) {
@@ -319,8 +319,9 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
             if (p.kind == EventKind::Rim && p.below.size() + p.above.size() > 2) target = minThickness / 4.0;
             if (p.kind == EventKind::Fork || p.kind == EventKind::Merge)
                 target = target == 0.0 ? minThickness : std::min(target, minThickness);
-            // A band's change halves with its slab where the shape changes smoothly; where it
-            // does not (the tips of a crescent running along a pipe's open rim), down to a quarter.
+            // A band's change halves with its slab where the shape changes smoothly; where it does
+            // not (the horns of a crescent running along a pipe's open rim), it takes planes closer
+            // than minThickness.
             if (p.kind == EventKind::Band && shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange)
                 target = target == 0.0 ? minThickness / 4.0 : std::min(target, minThickness / 4.0);
         }

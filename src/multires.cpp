@@ -212,8 +212,10 @@ void Reconstruction::correspond()
     // contours change shape by more than 3 pixels (graph.h, shapeChange): a profile changing by
     // d across the slab along a parabola strays d / 4 from the band's straight triangles, so
     // this keeps them within 0.75 voxel where the shape changes smoothly, and splits the slab
-    // where it does not (the aorta's end: 1.19 voxels without). Tubes that lean and turn (the
-    // helix: ellipses turning by up to 3 pixels between slices) follow their chords and get none.
+    // where it does not (the aorta's end: 1.19 voxels without), below half a voxel if need be
+    // (the hollow Y's crescents: 1.07 voxels off when halving stopped at half a voxel). Tubes
+    // that lean and turn (the helix: ellipses turning by up to 3 pixels between slices) follow
+    // their chords and get none.
     constexpr double kShapeChange = 3.0;
     std::vector<PlaneLoops> planes(mLoops.size());
     auto describe = [&](std::size_t s) {

@@ -218,6 +218,29 @@ TEST(Contour, CentralPointOfACShapeIsInside)
     EXPECT_TRUE(image.inside(static_cast<int>(std::lround(center.x)), static_cast<int>(std::lround(center.y))));
 }
 
+TEST(Contour, ClearPixelNearIsTwoPixelsDeepNotOnTheRidge)
+{
+    // A crescent: the disc of radius 14 about (20, 20) less the disc of radius 12 about (15, 20),
+    // 7 pixels thick along y = 20 (from the inner edge at u = 27 to the outer at u = 34). Near a
+    // point just inside the inner edge, the nearest pixel two steps from the outside is (29, 20):
+    // (27, 20) lies on the inner circle (outside), (28, 20) is one step in. The ridge point,
+    // what a C's central point takes, lies deeper.
+    FieldImage image;
+    image.width = image.height = 41;
+    image.values.resize(41 * 41);
+    for (int v = 0; v < 41; ++v)
+        for (int u = 0; u < 41; ++u)
+            image.values[static_cast<std::size_t>(v) * 41 + u] =
+                std::max(std::hypot(u - 20.0, v - 20.0) - 14.0, 12.0 - std::hypot(u - 15.0, v - 20.0));
+    const std::vector<BoundaryLoop> loops = traceBoundaries(image);
+    ASSERT_EQ(loops.size(), 1u);
+    const glm::dvec2 near(27.3, 20.0);
+    const glm::dvec2 clear = clearPixelNear(loops[0], near);
+    EXPECT_EQ(clear, glm::dvec2(29.0, 20.0));
+    EXPECT_TRUE(liesInside(loops[0], clear));
+    EXPECT_GT(glm::distance(centralPoint(loops[0], &near), near), glm::distance(clear, near)); // the ridge: deeper in
+}
+
 TEST(Contour, LevelsNestBitForBit)
 {
     // Ray x of level L is ray 2x of level L+1: the same crossing, computed the same way.

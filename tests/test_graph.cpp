@@ -309,8 +309,8 @@ TEST(Graph, BranchesPartThroughAPixelHole) { expectIsosurfaceTopology("parting")
 // between rays 4 voxels apart at the top level: centres follow their tube, and the top level
 // halves sectors whose edges cut corners.
 TEST(Graph, TBranchInTheSlicingPlane) { expectIsosurfaceTopology("tbranch"); }
-// A Y-shaped pipe open at its three ends: its rounded rims appear as arcs that close into a ring (several walls against a
-// wall and its hole), and its channel forks with the wall. Where the oblique channel leaves each
+// A Y-shaped pipe open at its three ends: its rounded rims appear as arcs that close into a ring
+// (several walls against a wall and its hole), and its channel forks with the wall. Where the oblique channel leaves each
 // rounded end, the last sections are thin crescents whose horns run along the rim: their bands
 // are halved below half a voxel while the shape changes fast, and each crescent's centre stays a
 // pixel clear near its predecessor's (a jump to the centroid, by the inner edge, turned the

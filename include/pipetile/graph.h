@@ -85,10 +85,13 @@ struct ContourGraph {
 double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b);
 
 /// Builds the graph of `planes` (the slicing plan's planes, in increasing w), adding planes where
-/// a slab holds an event that is not a band or an end, or a band whose contours change shape by
-/// more than `maxShapeChange` pixels, until it is at most `minThickness` thick:
-/// `addPlane(w)` traces a new plane and returns its index into `planes` (which it appends to).
-/// Added planes sit at dyadic fractions of their slab, so they never depend on a level.
+/// a slab holds an event that is not a band or an end (until it is at most `minThickness` thick),
+/// or a band whose contours change shape by more than `maxShapeChange` pixels (down to a quarter of
+/// `minThickness`): `addPlane(w)` traces a new plane and returns its index into `planes` (which it
+/// appends to). A plane added below `minThickness` for a band's shape alone must leave bands on
+/// both sides; if it does not, `dropLastPlane()` removes it again (from `planes` too) and the
+/// slab stays whole. Added planes sit at dyadic fractions of their slab, so they never depend on
+/// a level.
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
                                const std::function<void()>& dropLastPlane);
