@@ -385,10 +385,10 @@ void Reconstruction::followCentres()
     // (a tube that travels), not at all where standing still keeps more (a tube that grows an arm:
     // the T's side branch pulls the centroid 8 voxels along it at its first section while the
     // trunk stays put, and rays from there crossed the trunk's band 2.7 voxels inside it).
-    // A C-shaped section's central point is a pixel on the ridge along its arc, where the tie
-    // falls by scan order: consecutive sections could take points across the C from each other,
-    // and their bands then cross its gap. Each such section takes the ridge point nearest its
-    // predecessor's centre instead.
+    // Where that point is not clear of the boundary (a C's centroid in its gap, a crescent's by
+    // its inner edge), the centre stays near it all the same: at the nearest pixel two pixels
+    // deep. Taking the ridge pixel where the tie falls by scan order put consecutive centres
+    // across the C from each other, and their bands crossed its gap.
     for (const Tube& tube : mTubes)
         for (std::size_t k = 1; k < tube.members.size(); ++k) {
             SliceLoop& loop = mLoops[tube.members[k].first][tube.members[k].second];
