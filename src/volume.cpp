@@ -9,6 +9,7 @@
 #include <openvdb/io/Stream.h>
 #include <openvdb/tools/Interpolation.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -211,11 +212,12 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
 
     std::string name = options.gridName;
     if (name.empty()) {
-        for (const GridSummary& g : grids)
-            if (g.valueType == "float") { name = g.name; break; }
-        if (name.empty())
+        // The first float grid, whatever its name: pyopenvdb and others write grids named ''.
+        const auto first = std::find_if(grids.begin(), grids.end(), [](const GridSummary& g) { return g.valueType == "float"; });
+        if (first == grids.end())
             throw Error(inQuotes(path) + ": holds no scalar float grid (grids: " + listNames(grids) +
                         "); pipetile meshes float level sets and fog volumes");
+        name = first->name;
     } else {
         const auto it = std::find_if(grids.begin(), grids.end(), [&](const GridSummary& g) { return g.name == name; });
         if (it == grids.end())

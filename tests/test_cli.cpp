@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 
 using namespace pipetile;
@@ -310,6 +311,83 @@ TEST(Cli, FailedRunKeepsTheOldOutput)
     const auto before = std::filesystem::last_write_time(dir.path("m_L0.ply"));
     EXPECT_EQ(runCli("mesh '" + input + "' -o '" + dir.path("m.ply") + "' --levels 1 --iso 99").exitCode, 1);
     EXPECT_EQ(std::filesystem::last_write_time(dir.path("m_L0.ply")), before);
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"m_L0.ply"}));
+}
+
+namespace {
+
+std::string fileBytes(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+} // namespace
+
+TEST(Cli, RefusesAnOutputThatIsAnInput)
+{
+    // Every spelling of one file: the same name, a hard link, a symbolic link, a relative path
+    // through "..". Each run is refused as a usage error before any work, and the input and the
+    // folder stay as they were.
+    TempDir dir;
+    const std::string volume = dir.path("in.vdb");
+    std::filesystem::copy_file(test::realData("ts_common_carotid_artery_left_ls.vdb"), volume);
+    ASSERT_EQ(runCli("mesh '" + volume + "' -o '" + dir.path("m.ply") + "' --levels 1").exitCode, 0);
+    std::filesystem::create_hard_link(volume, dir.path("hard.vdb"));
+    std::filesystem::create_symlink(volume, dir.path("soft.json"));
+    std::filesystem::create_hard_link(dir.path("m_L0.ply"), dir.path("hard.ply"));
+    const std::string volumeBytes = fileBytes(volume), meshBytes = fileBytes(dir.path("m_L0.ply"));
+    const std::vector<std::string> files = dir.files();
+    const std::filesystem::path folder = std::filesystem::path(volume).parent_path();
+    const std::string viaParent = (folder / ".." / folder.filename() / "in.vdb").string();
+    for (const std::string& args : {
+             "mesh '" + volume + "' -o '" + dir.path("x.ply") + "' --report '" + volume + "'",
+             "mesh '" + volume + "' -o '" + dir.path("x.ply") + "' --report '" + dir.path("hard.vdb") + "'",
+             "mesh '" + volume + "' -o '" + dir.path("x.ply") + "' --report '" + dir.path("soft.json") + "'",
+             "mesh '" + volume + "' -o '" + dir.path("x.ply") + "' --report '" + viaParent + "'",
+             "bench '" + volume + "' --report '" + dir.path("soft.json") + "'",
+             "validate '" + volume + "' '" + dir.path("m_L0.ply") + "' --report '" + dir.path("m_L0.ply") + "'",
+             "validate '" + volume + "' '" + dir.path("m_L0.ply") + "' --error-colors '" + dir.path("hard.ply") + "'",
+             "validate '" + volume + "' '" + dir.path("m_L0.ply") + "' --report '" + dir.path("hard.vdb") + "'",
+         }) {
+        SCOPED_TRACE(args);
+        const test::CliResult r = runCli(args);
+        EXPECT_EQ(r.exitCode, 2) << r.err;
+        EXPECT_NE(r.err.find("would destroy it"), std::string::npos) << r.err;
+        EXPECT_EQ(dir.files(), files);
+    }
+    EXPECT_EQ(fileBytes(volume), volumeBytes);
+    EXPECT_EQ(fileBytes(dir.path("m_L0.ply")), meshBytes);
+}
+
+TEST(Cli, RefusesAnInputNamedLikeALevelItWouldWrite)
+{
+    // A volume saved under a mesh's name, x_L2.ply, meshed with -o x.ply: level 2 would be written
+    // over it.
+    TempDir dir;
+    const std::string volume = dir.path("x_L2.ply");
+    std::filesystem::copy_file(test::realData("ts_common_carotid_artery_left_ls.vdb"), volume);
+    const std::string bytes = fileBytes(volume);
+    const test::CliResult r = runCli("mesh '" + volume + "' -o '" + dir.path("x.ply") + "'");
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find("mesh of level 2"), std::string::npos) << r.err;
+    EXPECT_EQ(fileBytes(volume), bytes);
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"x_L2.ply"}));
+}
+
+TEST(Cli, RefusesTwoOutputsThatAreOneFile)
+{
+    // A report over one of the levels, and validate's two outputs on one file.
+    TempDir dir;
+    const std::string volume = test::realData("ts_common_carotid_artery_left_ls.vdb");
+    const test::CliResult mesh = runCli("mesh '" + volume + "' -o '" + dir.path("m.ply") + "' --report '" + dir.path("m_L1.ply") + "'");
+    EXPECT_EQ(mesh.exitCode, 2) << mesh.err;
+    EXPECT_NE(mesh.err.find("is also the mesh of level 1"), std::string::npos) << mesh.err;
+    EXPECT_TRUE(dir.files().empty());
+    ASSERT_EQ(runCli("mesh '" + volume + "' -o '" + dir.path("m.ply") + "' --levels 1").exitCode, 0);
+    const test::CliResult validate = runCli("validate '" + volume + "' '" + dir.path("m_L0.ply") + "' --error-colors '" +
+                                            dir.path("c.ply") + "' --report '" + dir.path("c.ply") + "'");
+    EXPECT_EQ(validate.exitCode, 2) << validate.err;
     EXPECT_EQ(dir.files(), (std::vector<std::string>{"m_L0.ply"}));
 }
 

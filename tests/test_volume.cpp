@@ -119,6 +119,19 @@ TEST(Volume, VectorGridIsRefusedWithItsType)
     EXPECT_NE(messageOf([&] { readVolume(dir.path("vel.vdb"), {"velocity", {}}); }).find("vec3s"), std::string::npos);
 }
 
+TEST(Volume, UnnamedFloatGridIsMeshed)
+{
+    // pyopenvdb's default name is '': such a grid is the file's first float grid like any other.
+    TempDir dir;
+    openvdb::FloatGrid::Ptr grid = smallLevelSet();
+    grid->setName("");
+    openvdb::io::File(dir.path("unnamed.vdb")).write({grid});
+    const Volume volume = readVolume(dir.path("unnamed.vdb"));
+    EXPECT_EQ(volume.gridName(), "");
+    EXPECT_EQ(volume.volumeClass(), VolumeClass::LevelSet);
+    EXPECT_NEAR(volume.signedField({2.5, 0.0, 0.0}), 0.0, 1e-6); // the sphere of radius 2.5
+}
+
 TEST(Volume, EmptyGridIsRefused)
 {
     auto grid = openvdb::FloatGrid::create(3.0f);

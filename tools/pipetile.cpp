@@ -16,6 +16,9 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <string>
+#include <system_error>
+#include <vector>
 
 namespace {
 
@@ -121,6 +124,36 @@ void checkWritableTarget(const std::string& path, const char* what)
                               " does not exist; create it first");
 }
 
+// Whether two paths name one file: by device and inode where both exist (hard links, symbolic
+// links and other spellings of one file), else by their normalised absolute paths.
+bool sameFile(const std::string& a, const std::string& b)
+{
+    std::error_code ec;
+    if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
+    return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+struct NamedPath {
+    std::string path;
+    std::string what; // "input volume", "report", ...
+};
+
+// Refuses, before any work, an output that is one of the inputs or another output: it would be
+// overwritten (a report over the volume it describes, a coloured mesh over the mesh it reads).
+void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs)
+{
+    for (std::size_t o = 0; o < outputs.size(); ++o) {
+        for (const NamedPath& in : inputs)
+            if (!in.path.empty() && sameFile(outputs[o].path, in.path))
+                throw pipetile::UsageError("the " + outputs[o].what + " '" + outputs[o].path + "' is the " + in.what +
+                                           " '" + in.path + "': writing it would destroy it; choose another name");
+        for (std::size_t p = 0; p < o; ++p)
+            if (sameFile(outputs[o].path, outputs[p].path))
+                throw pipetile::UsageError("the " + outputs[o].what + " '" + outputs[o].path + "' is also the " +
+                                           outputs[p].what + "; give them different names");
+    }
+}
+
 struct MeshArgs {
     std::string input, output, grid, report;
     std::optional<double> iso;
@@ -153,6 +186,11 @@ int runMesh(const MeshArgs& args)
         throw pipetile::UsageError("-o '" + output + "': unknown mesh format; use .ply .obj .stl .off");
     checkWritableTarget(output, "meshes");
     if (!args.report.empty()) checkWritableTarget(args.report, "report");
+    std::vector<NamedPath> outputs;
+    for (int level = 0; level < args.levels; ++level)
+        outputs.push_back({levelPath(output, level), "mesh of level " + std::to_string(level)});
+    if (!args.report.empty()) outputs.push_back({args.report, "report"});
+    refuseClobbering({{args.input, "input volume"}}, outputs);
 
     pipetile::VolumeOptions volumeOptions;
     volumeOptions.gridName = args.grid;
@@ -276,6 +314,10 @@ int runValidate(const ValidateArgs& args)
             throw pipetile::UsageError("--error-colors '" + args.colors + "': the coloured mesh is written as .ply");
         checkWritableTarget(args.colors, "coloured mesh");
     }
+    std::vector<NamedPath> outputs;
+    if (!args.colors.empty()) outputs.push_back({args.colors, "coloured mesh"});
+    if (!args.report.empty()) outputs.push_back({args.report, "report"});
+    refuseClobbering({{args.input, "input volume"}, {args.mesh, "mesh to validate"}}, outputs);
     pipetile::VolumeOptions volumeOptions;
     volumeOptions.gridName = args.grid;
     volumeOptions.iso = args.iso;
@@ -397,7 +439,10 @@ int main(int argc, char** argv)
     try {
         if (mesh->parsed()) return runMesh(meshArgs);
         if (validate->parsed()) return runValidate(validateArgs);
-        if (bench->parsed()) return pipetile::tools::runBench(benchArgs);
+        if (bench->parsed()) {
+            if (!benchArgs.report.empty()) refuseClobbering({{benchArgs.input, "input volume"}}, {{benchArgs.report, "report"}});
+            return pipetile::tools::runBench(benchArgs);
+        }
         if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);
         if (info->parsed()) return runInfo(infoInput);
     } catch (const pipetile::UsageError& e) {
