@@ -414,16 +414,16 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     const glm::dvec2 candidate = travels ? loop.loop.centroid + (before.view.center - before.loop.centroid) : before.view.center;
     // A followed centre must stay clear of the boundary (by a pixel, or as far as the centroid
     // is), or its rays would crowd one side of the section.
-    const bool centroidInside = liesInside(loop.loop, loop.loop.centroid);
-    const double centroidClearance = centroidInside ? boundaryClearance(loop.loop, loop.loop.centroid) : 0.0;
+    const bool centroidIn = centroidInside(loop.loop);
+    const double centroidClearance = centroidIn ? boundaryClearance(loop.loop, loop.loop.centroid) : 0.0;
     if (liesInside(loop.loop, candidate) &&
-        boundaryClearance(loop.loop, candidate) >= (centroidInside ? std::min(1.0, centroidClearance) : 1.0))
+        boundaryClearance(loop.loop, candidate) >= (centroidIn ? std::min(1.0, centroidClearance) : 1.0))
         return candidate;
     // Otherwise the centroid if it is a pixel clear; if not (it lies outside a C, or hugs the inner
     // edge of a crescent at a pipe's open rim, where a jump to it turned the crescent's tips
     // against each other's rays, 1.13 voxels off), the clear pixel nearest where the centre would
     // have gone.
-    return centroidInside && centroidClearance >= 1.0 ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
+    return centroidIn && centroidClearance >= 1.0 ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
 }
 
 void Reconstruction::closeEnds()
