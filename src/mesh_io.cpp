@@ -1,13 +1,13 @@
-// pipetile — mesh_io: reading and writing mesh files through OpenMesh.
+// pipetile — mesh_io: writing mesh files through OpenMesh (reading: mesh_read.cpp).
 
 #include <pipetile/error.h>
 #include <pipetile/mesh_io.h>
 
 #include <pipetile/detail/atomic_file.h>
+#include <pipetile/detail/mesh_read.h>
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 
 #include <algorithm>
 #include <cctype>
@@ -18,7 +18,6 @@ namespace pipetile {
 namespace {
 
 using WriteMesh = OpenMesh::TriMesh_ArrayKernelT<>;
-using ReadMesh = OpenMesh::PolyMesh_ArrayKernelT<>;
 
 std::string lowerExtension(const std::string& path)
 {
@@ -31,8 +30,7 @@ std::string lowerExtension(const std::string& path)
 
 bool isMeshExtension(const std::string& path)
 {
-    const std::string ext = lowerExtension(path);
-    return ext == ".ply" || ext == ".obj" || ext == ".stl" || ext == ".off";
+    return detail::meshFormatOf(path).has_value();
 }
 
 void writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWriteOptions& options)
@@ -75,30 +73,6 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWrit
         if (!OpenMesh::IO::write_mesh(out, tmp, ioOptions, 9))
             throw Error("'" + path + "': OpenMesh could not write the file; check that the folder is writable");
     });
-}
-
-TriangleMesh readMesh(const std::string& path)
-{
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) throw Error("'" + path + "': no such mesh file; check the path");
-    if (!isMeshExtension(path))
-        throw Error("'" + path + "': unknown mesh format '" + lowerExtension(path) + "'; use .ply .obj .stl .off");
-    ReadMesh in;
-    OpenMesh::IO::Options ioOptions;
-    if (!OpenMesh::IO::read_mesh(in, path, ioOptions))
-        throw Error("'" + path + "': not a mesh OpenMesh can read; check the file");
-    TriangleMesh mesh;
-    mesh.vertices.reserve(in.n_vertices());
-    for (const auto& v : in.vertices()) {
-        const ReadMesh::Point& p = in.point(v);
-        mesh.vertices.push_back(glm::dvec3(p[0], p[1], p[2]));
-    }
-    for (const auto& f : in.faces()) {
-        std::vector<std::uint32_t> ids;
-        for (const auto& v : in.fv_range(f)) ids.push_back(static_cast<std::uint32_t>(v.idx()));
-        for (std::size_t k = 1; k + 1 < ids.size(); ++k) mesh.triangles.push_back({ids[0], ids[k], ids[k + 1]});
-    }
-    return mesh;
 }
 
 } // namespace pipetile

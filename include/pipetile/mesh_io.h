@@ -1,5 +1,5 @@
 // pipetile — mesh_io: the triangle mesh type, and reading and writing mesh files.
-// The only module that includes OpenMesh; the extension of a path picks the format.
+// The only module that includes OpenMesh (to write); the extension of a path picks the format.
 #pragma once
 
 #include <pipetile/tiler.h>
@@ -31,9 +31,13 @@ bool isMeshExtension(const std::string& path);
 /// @throw Error for an unknown extension, or a folder that is missing or not writable.
 void writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWriteOptions& options = {});
 
-/// Reads any triangle or polygon mesh OpenMesh reads (.ply .obj .stl .off); polygons are split
-/// into triangle fans. Vertices shared by several faces stay shared.
-/// @throw Error if the file is missing or not a mesh OpenMesh can read.
+/// Reads a triangle or polygon mesh (.ply .obj .stl .off) as written: every vertex in file order,
+/// in double precision, every face in file order, polygons split into triangle fans. Nothing is
+/// dropped, merged or repaired, so a validation judges the file itself; STL, which stores each
+/// triangle's own corners, gets one vertex per distinct corner position (exactly equal coordinates).
+/// @throw Error naming the file, and the first bad element with its value, if the file is missing,
+///        not a regular file, malformed or truncated, or has a NaN or infinite coordinate, a face
+///        of fewer than three vertices, or a vertex index that is negative or out of range.
 TriangleMesh readMesh(const std::string& path);
 
 } // namespace pipetile
