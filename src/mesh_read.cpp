@@ -624,35 +624,42 @@ StlSoup readAsciiStl(std::string_view bytes, const std::string& file)
 {
     StlSoup soup;
     TokenReader tokens(bytes, 1);
-    bool inFacet = false;
+    bool inFacet = false, ended = true; // ended: no facet since the last "endsolid"
     std::size_t cornersInFacet = 0;
-    auto expect = [&](std::string_view word) {
+    auto next = [&]() {
         const std::string_view token = tokens.next();
+        if (token.empty()) fail(file, "the file ends inside its last facet; it is truncated");
+        return token;
+    };
+    auto expect = [&](std::string_view word) {
+        const std::string_view token = next();
         if (token != word) fail(file, "line " + std::to_string(tokens.line()) + ": expected '" + std::string(word) + "', found " + quote(token));
     };
     for (std::string_view token = tokens.next(); !token.empty(); token = tokens.next()) {
         const std::string at = "line " + std::to_string(tokens.line());
-        if (token == "solid" || token == "endsolid") {
+        if ((token == "solid" || token == "endsolid") && !inFacet) {
             tokens.skipLine(); // the solid's name
+            ended = token == "endsolid";
         } else if (token == "facet" && !inFacet) {
             expect("normal");
-            for (int k = 0; k < 3; ++k) tokens.next(); // the normal follows from the corners
+            for (int k = 0; k < 3; ++k) next(); // the normal follows from the corners
             inFacet = true;
+            ended = false;
             cornersInFacet = 0;
             soup.facetLines.push_back(tokens.line());
-        } else if (token == "outer") {
+        } else if (token == "outer" && inFacet) {
             expect("loop");
         } else if (token == "vertex" && inFacet) {
             glm::dvec3 p;
             for (int axis = 0; axis < 3; ++axis) {
-                const std::string_view value = tokens.next();
+                const std::string_view value = next();
                 const std::optional<double> x = toDouble(value);
                 if (!x) fail(file, at + ": " + quote(value) + " is not a number");
                 p[axis] = *x;
             }
             soup.corners.push_back(p);
             ++cornersInFacet;
-        } else if (token == "endloop") {
+        } else if (token == "endloop" && inFacet) {
         } else if (token == "endfacet" && inFacet) {
             if (cornersInFacet != 3)
                 fail(file, element("facet", static_cast<std::int64_t>(soup.facetLines.size()) - 1, soup.facetLines.back()) +
@@ -663,6 +670,7 @@ StlSoup readAsciiStl(std::string_view bytes, const std::string& file)
         }
     }
     if (inFacet) fail(file, "the file ends inside its last facet; it is truncated");
+    if (!ended) fail(file, "the file ends without 'endsolid'; it is truncated");
     return soup;
 }
 

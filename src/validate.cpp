@@ -64,7 +64,9 @@ Topology checkTopology(const TriangleMesh& mesh)
         const std::size_t count = j - i;
         ++topo.edges;
         if (count == 1) ++topo.boundaryEdges;
-        else if (count > 2) ++topo.nonManifoldEdges;
+        else if (count > 2) {
+            if (topo.nonManifoldEdges++ == 0) topo.firstNonManifoldEdge = {edges[i].lo, edges[i].hi};
+        }
         else if (edges[i].forward == edges[i + 1].forward) ++topo.misorientedEdges;
         for (std::size_t k = i + 1; k < j; ++k)
             parent[findRoot(parent, edges[k].face)] = findRoot(parent, edges[i].face);
@@ -93,7 +95,7 @@ Topology checkTopology(const TriangleMesh& mesh)
                 local[findRoot(local, spokes[k].second)] = findRoot(local, spokes[k - 1].second);
         int groups = 0;
         for (std::uint32_t k = 0; k < fan.size(); ++k) groups += findRoot(local, k) == k ? 1 : 0;
-        if (groups > 1) ++topo.nonManifoldVertices;
+        if (groups > 1 && topo.nonManifoldVertices++ == 0) topo.firstNonManifoldVertex = static_cast<long long>(v);
     }
     topo.euler = topo.vertices - topo.edges + topo.triangles;
     return topo;

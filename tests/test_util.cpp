@@ -5,8 +5,11 @@
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstring>
+#include <stdexcept>
 #include <fstream>
 #include <map>
 #include <set>
@@ -160,6 +163,134 @@ void writeNanGridVdb(const std::string& path)
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     for (int i = 0; i < 8; ++i) grid->tree().setValue(openvdb::Coord(i, 0, 0), std::numeric_limits<float>::quiet_NaN());
     writeGridsVdb(path, {grid});
+}
+
+const std::vector<MeshFile>& allMeshFiles()
+{
+    static const std::vector<MeshFile> kinds = {MeshFile::PlyAscii, MeshFile::PlyBinary, MeshFile::PlyBinaryBigEndian,
+                                                MeshFile::Obj,      MeshFile::Off,       MeshFile::StlAscii,
+                                                MeshFile::StlBinary};
+    return kinds;
+}
+
+std::string extensionOf(MeshFile kind)
+{
+    switch (kind) {
+    case MeshFile::PlyAscii: case MeshFile::PlyBinary: case MeshFile::PlyBinaryBigEndian: return ".ply";
+    case MeshFile::Obj: return ".obj";
+    case MeshFile::Off: return ".off";
+    case MeshFile::StlAscii: case MeshFile::StlBinary: return ".stl";
+    }
+    return "";
+}
+
+std::string nameOf(MeshFile kind)
+{
+    static const char* kNames[] = {"PlyAscii", "PlyBinary", "PlyBinaryBigEndian", "Obj", "Off", "StlAscii", "StlBinary"};
+    return kNames[static_cast<int>(kind)];
+}
+
+namespace {
+
+// "%.17g": every double exactly, and "nan", "inf" as text formats spell them.
+std::string text(double x)
+{
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.17g", x);
+    return buffer;
+}
+
+template <typename T>
+void putBinary(std::string& out, T value, bool bigEndian)
+{
+    char bytes[sizeof(T)];
+    std::memcpy(bytes, &value, sizeof(T));
+    if (bigEndian) std::reverse(bytes, bytes + sizeof(T)); // the tests run on little-endian machines
+    out.append(bytes, sizeof(T));
+}
+
+std::string plyFile(bool ascii, bool bigEndian, const std::vector<glm::dvec3>& vertices,
+                    const std::vector<std::vector<long long>>& faces)
+{
+    std::string out = std::string("ply\nformat ") +
+                      (ascii ? "ascii" : bigEndian ? "binary_big_endian" : "binary_little_endian") + " 1.0\n" +
+                      "element vertex " + std::to_string(vertices.size()) +
+                      "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
+                      std::to_string(faces.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+    for (const glm::dvec3& v : vertices) {
+        if (ascii) out += text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
+        else for (int axis = 0; axis < 3; ++axis) putBinary<double>(out, v[axis], bigEndian);
+    }
+    for (const std::vector<long long>& f : faces) {
+        if (ascii) out += std::to_string(f.size());
+        else putBinary<std::uint8_t>(out, static_cast<std::uint8_t>(f.size()), bigEndian);
+        for (long long i : f) {
+            if (ascii) out += " " + std::to_string(i);
+            else putBinary<std::int32_t>(out, static_cast<std::int32_t>(i), bigEndian);
+        }
+        if (ascii) out += "\n";
+    }
+    return out;
+}
+
+std::string stlFile(bool ascii, const std::vector<glm::dvec3>& vertices, const std::vector<std::vector<long long>>& faces)
+{
+    std::string out = ascii ? "solid test\n" : std::string(80, ' ');
+    if (!ascii) putBinary<std::uint32_t>(out, static_cast<std::uint32_t>(faces.size()), false);
+    for (const std::vector<long long>& f : faces) {
+        if (f.size() != 3) throw std::invalid_argument("STL holds triangles only");
+        if (ascii) out += "  facet normal 0 0 0\n    outer loop\n";
+        else for (int k = 0; k < 3; ++k) putBinary<float>(out, 0.0f, false);
+        for (long long i : f) {
+            const glm::dvec3& v = vertices.at(static_cast<std::size_t>(i));
+            if (ascii) out += "      vertex " + text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
+            else for (int axis = 0; axis < 3; ++axis) putBinary<float>(out, static_cast<float>(v[axis]), false);
+        }
+        if (ascii) out += "    endloop\n  endfacet\n";
+        else putBinary<std::uint16_t>(out, 0, false);
+    }
+    if (ascii) out += "endsolid test\n";
+    return out;
+}
+
+} // namespace
+
+void writeTextFile(const std::string& path, const std::string& text)
+{
+    std::ofstream out(path, std::ios::binary);
+    out << text;
+    if (!out.flush()) throw std::runtime_error("cannot write " + path);
+}
+
+void writeMeshFile(const std::string& path, MeshFile kind, const std::vector<glm::dvec3>& vertices,
+                   const std::vector<std::vector<long long>>& faces)
+{
+    std::string out;
+    switch (kind) {
+    case MeshFile::PlyAscii: out = plyFile(true, false, vertices, faces); break;
+    case MeshFile::PlyBinary: out = plyFile(false, false, vertices, faces); break;
+    case MeshFile::PlyBinaryBigEndian: out = plyFile(false, true, vertices, faces); break;
+    case MeshFile::Obj:
+        for (const glm::dvec3& v : vertices) out += "v " + text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
+        for (const std::vector<long long>& f : faces) {
+            out += "f";
+            for (long long i : f) out += " " + std::to_string(i + 1);
+            out += "\n";
+        }
+        break;
+    case MeshFile::Off:
+        out = "OFF\n" + std::to_string(vertices.size()) + " " + std::to_string(faces.size()) + " 0\n";
+        for (const glm::dvec3& v : vertices) out += text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
+        for (const std::vector<long long>& f : faces) {
+            out += std::to_string(f.size());
+            for (long long i : f) out += " " + std::to_string(i);
+            out += "\n";
+        }
+        break;
+    case MeshFile::StlAscii: out = stlFile(true, vertices, faces); break;
+    case MeshFile::StlBinary: out = stlFile(false, vertices, faces); break;
+    }
+    writeTextFile(path, out);
 }
 
 } // namespace pipetile::test

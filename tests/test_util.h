@@ -9,6 +9,9 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
 
 namespace pipetile::test {
 
@@ -51,5 +54,23 @@ std::vector<EdgeType> parseEdges(const std::string& names);
 void writeVectorGridVdb(const std::string& path);  // one Vec3 grid named "velocity"
 void writeEmptyGridVdb(const std::string& path);   // one float level set "empty" without voxels
 void writeNanGridVdb(const std::string& path);     // one float level set "broken" of NaNs
+
+/// Mesh files written byte by byte rather than through a library, so that they can hold what no
+/// writer would: NaN coordinates, bad indices, non-manifold faces.
+enum class MeshFile {
+    PlyAscii,
+    PlyBinary,          // little endian; double x, y, z; list uchar int vertex_indices
+    PlyBinaryBigEndian, // the same, big endian
+    Obj,                // indices written from 1: index i becomes i + 1
+    Off,
+    StlAscii,           // triangles only; each corner written out by its coordinates
+    StlBinary,          // the same, as float32
+};
+const std::vector<MeshFile>& allMeshFiles();
+std::string extensionOf(MeshFile kind); // ".ply", ...
+std::string nameOf(MeshFile kind);      // "PlyAscii", ... for SCOPED_TRACE
+void writeMeshFile(const std::string& path, MeshFile kind, const std::vector<glm::dvec3>& vertices,
+                   const std::vector<std::vector<long long>>& faces);
+void writeTextFile(const std::string& path, const std::string& text);
 
 } // namespace pipetile::test

@@ -99,6 +99,33 @@ json validationJson(const pipetile::Validation& v)
     return j;
 }
 
+// What is wrong with a mesh's topology, in words, with where the first non-manifold edge and
+// vertex are (coordinates, since every format numbers vertices its own way); empty if nothing is.
+std::string topologyProblems(const pipetile::TriangleMesh& mesh, const pipetile::Topology& t)
+{
+    auto at = [&](long long v) {
+        const glm::dvec3& p = mesh.vertices[static_cast<std::size_t>(v)];
+        char buffer[96];
+        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", p.x, p.y, p.z);
+        return std::string(buffer);
+    };
+    auto count = [](long long n, const char* what) {
+        return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+    };
+    std::vector<std::string> parts;
+    if (t.nonManifoldEdges > 0)
+        parts.push_back(count(t.nonManifoldEdges, "non-manifold edge") + " (in 3 or more triangles; one joins " +
+                        at(t.firstNonManifoldEdge[0]) + " and " + at(t.firstNonManifoldEdge[1]) + ")");
+    if (t.nonManifoldVertices > 0)
+        parts.push_back(count(t.nonManifoldVertices, "non-manifold vertex") + " (where separate fans of triangles meet; one at " +
+                        at(t.firstNonManifoldVertex) + ")");
+    if (t.boundaryEdges > 0) parts.push_back(count(t.boundaryEdges, "boundary edge"));
+    if (t.misorientedEdges > 0) parts.push_back(count(t.misorientedEdges, "misoriented edge"));
+    std::string text;
+    for (const std::string& part : parts) text += (text.empty() ? "" : ", ") + part;
+    return text;
+}
+
 void printValidationHeader()
 {
     std::printf("%-8s %10s %8s %8s %8s  %-6s %-8s %-8s %-7s %5s %9s\n", "", "hausdorff", "mean", "rms", "|phi|max",
@@ -323,6 +350,9 @@ int runValidate(const ValidateArgs& args)
     volumeOptions.iso = args.iso;
     const pipetile::Volume volume = pipetile::readVolume(args.input, volumeOptions);
     const pipetile::TriangleMesh mesh = pipetile::readMesh(args.mesh);
+    if (mesh.triangles.empty())
+        throw pipetile::Error("'" + args.mesh + "': the mesh has " + std::to_string(mesh.vertices.size()) +
+                              " vertices and no faces; nothing to validate");
     const pipetile::Validator validator(volume, {1.0, args.threads});
     const pipetile::Validation v = validator.validate(mesh);
     std::printf("%s against the isosurface of %s, grid '%s' at iso %g (volumeToMesh: %zu triangles, %.4f s)\n",
@@ -330,6 +360,8 @@ int runValidate(const ValidateArgs& args)
                 validator.reference().triangles.size(), validator.referenceSeconds());
     printValidationHeader();
     printValidationRow("mesh", v);
+    const std::string problems = topologyProblems(mesh, v.topology);
+    if (!problems.empty()) std::printf("topology: %s\n", problems.c_str());
     if (!args.colors.empty()) {
         pipetile::MeshWriteOptions options;
         options.colors = pipetile::errorColors(v.vertexDistance, v.voxel);

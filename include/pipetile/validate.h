@@ -5,6 +5,7 @@
 #include <pipetile/mesh_io.h>
 #include <pipetile/volume.h>
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -19,6 +20,8 @@ struct Topology {
     long long nonManifoldEdges = 0; // edges with three or more triangles
     long long nonManifoldVertices = 0; // vertices whose triangles do not form one fan
     long long misorientedEdges = 0; // edges whose two triangles run the same way along them
+    std::array<long long, 2> firstNonManifoldEdge{-1, -1}; // the lowest-numbered one's vertices; -1: none
+    long long firstNonManifoldVertex = -1;                 // the lowest-numbered one; -1: none
     int components = 0;            // connected by shared edges
     long long euler = 0;           // V - E + F
     double signedVolume = 0.0;     // world units^3; > 0 when closed and normals point outward
