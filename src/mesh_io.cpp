@@ -8,6 +8,7 @@
 
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
 
 #include <algorithm>
 #include <cctype>
@@ -24,6 +25,19 @@ std::string lowerExtension(const std::string& path)
     std::string ext = std::filesystem::path(path).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
     return ext;
+}
+
+// OpenMesh logs on stderr ("[OBJWriter] : write file" for every OBJ) and puts its complaints
+// there too; the library never prints, and reports failures by throwing Error instead.
+void silenceOpenMesh()
+{
+    static const bool silenced = [] {
+        ::omlog().disable();
+        ::omout().disable();
+        ::omerr().disable();
+        return true;
+    }();
+    (void)silenced;
 }
 
 } // namespace
@@ -69,6 +83,7 @@ void writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWrit
     const std::string ext = lowerExtension(path);
     if (options.binary && (ext == ".ply" || ext == ".stl")) ioOptions += OpenMesh::IO::Options::Binary;
     if (withColors) ioOptions += OpenMesh::IO::Options::VertexColor;
+    silenceOpenMesh();
     detail::writeAtomically(path, [&](const std::string& tmp) {
         if (!OpenMesh::IO::write_mesh(out, tmp, ioOptions, 9))
             throw Error("'" + path + "': OpenMesh could not write the file; check that the folder is writable");

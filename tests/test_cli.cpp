@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
+#include <map>
 #include <set>
 
 using namespace pipetile;
@@ -289,6 +291,151 @@ TEST(Cli, IsovalueThatCrossesNothingGivesTheRange)
     TempDir dir;
     expectRefusal(dir, test::realData("vmtk_aorta_ls.vdb"), "--iso 100", 1,
                   {"isovalue 100 crosses nothing", "-3.51562 to 3.51562"});
+}
+
+// ---- validate reads what is in the file ------------------------------------------------------
+
+namespace {
+
+// The unit tetrahedron and a second one glued to it at the edge (0,0,0)-(1,0,0), or at the origin
+// alone (test_mesh_io.cpp says how they are built).
+const std::vector<glm::dvec3> kSharingAnEdge = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}};
+const std::vector<std::vector<long long>> kSharingAnEdgeFaces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
+                                                                 {0, 4, 1}, {0, 1, 5}, {0, 5, 4}, {1, 4, 5}};
+const std::vector<glm::dvec3> kSharingAVertex = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
+const std::vector<std::vector<long long>> kSharingAVertexFaces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
+                                                                  {0, 4, 5}, {0, 6, 4}, {0, 5, 6}, {4, 6, 5}};
+
+// `pipetile validate VOLUME MESH --report DIR/r.json` must exit 1 with one line on stderr, the
+// error itself first (no OpenMesh chatter before it), naming the mesh file and `parts`, and
+// write no report.
+void expectValidateRefusal(const TempDir& dir, const std::string& volume, const std::string& mesh,
+                           const std::vector<std::string>& parts)
+{
+    const test::CliResult r = runCli("validate '" + volume + "' '" + mesh + "' --report '" + dir.path("r.json") + "'");
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_EQ(r.err.rfind("pipetile: error: '" + mesh + "': ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+    for (const std::string& part : parts) EXPECT_NE(r.err.find(part), std::string::npos) << part << " in: " << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("r.json")));
+}
+
+} // namespace
+
+TEST(Cli, ValidateRefusesNonFiniteVerticesAndBadIndices)
+{
+    // Before, each of these gave exit 0: NaN with Hausdorff "inf", all-NaN a perfect 0.000, and
+    // a bad face dropped so that a smaller mesh was judged.
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    const std::string volume = dir.path("s.vdb");
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    const std::vector<glm::dvec3> tetra = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const std::vector<std::vector<long long>> faces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    std::vector<glm::dvec3> withNan = tetra, withInf = tetra;
+    withNan[2].z = nan;
+    withInf[1].x = -inf;
+    const std::vector<glm::dvec3> allNan(4, glm::dvec3(nan));
+    test::writeMeshFile(dir.path("nan.ply"), test::MeshFile::PlyBinary, withNan, faces);
+    expectValidateRefusal(dir, volume, dir.path("nan.ply"), {"vertex 2 is (0, 1, nan)", "not a finite number"});
+    test::writeMeshFile(dir.path("inf.obj"), test::MeshFile::Obj, withInf, faces);
+    expectValidateRefusal(dir, volume, dir.path("inf.obj"), {"vertex 2 (line 2) is (-inf, 0, 0)"});
+    test::writeMeshFile(dir.path("allnan.off"), test::MeshFile::Off, allNan, faces);
+    expectValidateRefusal(dir, volume, dir.path("allnan.off"), {"vertex 0 (line 3) is (nan, nan, nan)"});
+    test::writeMeshFile(dir.path("nan.stl"), test::MeshFile::StlBinary, withNan, faces);
+    expectValidateRefusal(dir, volume, dir.path("nan.stl"), {"facet 0 has the corner (0, 1, nan)"});
+    std::vector<std::vector<long long>> bad = faces;
+    bad[3][2] = 4;
+    test::writeMeshFile(dir.path("past.ply"), test::MeshFile::PlyAscii, tetra, bad);
+    expectValidateRefusal(dir, volume, dir.path("past.ply"), {"face 3 (line 17) refers to vertex 4", "numbered 0 to 3"});
+    bad[3][2] = -1;
+    test::writeMeshFile(dir.path("negative.off"), test::MeshFile::Off, tetra, bad);
+    expectValidateRefusal(dir, volume, dir.path("negative.off"), {"face 3 (line 10) refers to vertex -1"});
+    test::writeMeshFile(dir.path("negative.ply"), test::MeshFile::PlyBinary, tetra, bad);
+    expectValidateRefusal(dir, volume, dir.path("negative.ply"), {"face 3 refers to vertex -1"});
+}
+
+TEST(Cli, ValidateReportsNonManifoldEdgesAndVertices)
+{
+    // OpenMesh's reader split the shared vertices apart: both came out manifold (the second one
+    // crashed the reader). Now: one non-manifold edge, or one non-manifold vertex, named by its
+    // coordinates; closed; Euler 3 either way (V - E + F = 6 - 11 + 8 = 7 - 12 + 8).
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    struct Case {
+        std::string file;
+        test::MeshFile kind;
+        const std::vector<glm::dvec3>& vertices;
+        const std::vector<std::vector<long long>>& faces;
+        std::string line;
+        long long edges, vertices_;
+    };
+    const std::vector<Case> cases = {
+        {"edge.off", test::MeshFile::Off, kSharingAnEdge, kSharingAnEdgeFaces,
+         "topology: 1 non-manifold edge (in 3 or more triangles; one joins (0, 0, 0) and (1, 0, 0))\n", 1, 0},
+        {"edge.stl", test::MeshFile::StlBinary, kSharingAnEdge, kSharingAnEdgeFaces, "topology: 1 non-manifold edge", 1, 0},
+        {"vertex.obj", test::MeshFile::Obj, kSharingAVertex, kSharingAVertexFaces,
+         "topology: 1 non-manifold vertex (where separate fans of triangles meet; one at (0, 0, 0))\n", 0, 1},
+        {"vertex.ply", test::MeshFile::PlyBinary, kSharingAVertex, kSharingAVertexFaces, "topology: 1 non-manifold vertex", 0, 1},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.file);
+        test::writeMeshFile(dir.path(c.file), c.kind, c.vertices, c.faces);
+        const test::CliResult r = runCli("validate '" + dir.path("s.vdb") + "' '" + dir.path(c.file) + "' --report '" +
+                                         dir.path("r.json") + "'");
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        EXPECT_EQ(r.err, "");
+        EXPECT_NE(r.out.find(c.line), std::string::npos) << r.out;
+        const nlohmann::json v = readJson(dir.path("r.json"))["validation"];
+        EXPECT_FALSE(v["manifold"].get<bool>());
+        EXPECT_TRUE(v["closed"].get<bool>());
+        EXPECT_EQ(v["non_manifold_edges"].get<long long>(), c.edges);
+        EXPECT_EQ(v["non_manifold_vertices"].get<long long>(), c.vertices_);
+        EXPECT_EQ(v["euler"].get<long long>(), 3);
+    }
+}
+
+TEST(Cli, ValidateReadsEveryFormatAlike)
+{
+    // One mesh run per format; level 3 of the straight tube is closed, manifold, Euler 2, and the
+    // report's vertex and triangle counts are the mesh run's (STL welds its corners back into
+    // exactly those vertices). Binary PLY and STL hold the same floats, so their distances agree
+    // exactly; OBJ and OFF keep 9 significant digits, within 1e-6 voxel of them here.
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    std::map<std::string, double> hausdorff;
+    for (const std::string ext : {".ply", ".obj", ".stl", ".off"}) {
+        SCOPED_TRACE(ext);
+        const test::CliResult meshed = runCli("mesh '" + dir.path("s.vdb") + "' -o '" + dir.path("m" + ext) +
+                                              "' --report '" + dir.path("m.json") + "'");
+        ASSERT_EQ(meshed.exitCode, 0) << meshed.err;
+        const nlohmann::json level = readJson(dir.path("m.json"))["levels"][3];
+        const test::CliResult r = runCli("validate '" + dir.path("s.vdb") + "' '" + dir.path("m_L3" + ext) +
+                                         "' --report '" + dir.path("r.json") + "'");
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        EXPECT_EQ(r.err, "");
+        EXPECT_EQ(r.out.find("topology:"), std::string::npos) << r.out;
+        const nlohmann::json j = readJson(dir.path("r.json"));
+        EXPECT_EQ(j["vertices"].get<long long>(), level["vertices"].get<long long>());
+        EXPECT_EQ(j["triangles"].get<long long>(), level["triangles"].get<long long>());
+        const nlohmann::json& v = j["validation"];
+        EXPECT_TRUE(v["closed"].get<bool>() && v["manifold"].get<bool>() && v["oriented"].get<bool>());
+        EXPECT_EQ(v["euler"].get<long long>(), 2);
+        hausdorff[ext] = v["hausdorff_voxels"].get<double>();
+    }
+    EXPECT_EQ(hausdorff[".stl"], hausdorff[".ply"]);
+    EXPECT_NEAR(hausdorff[".obj"], hausdorff[".ply"], 1e-6);
+    EXPECT_NEAR(hausdorff[".off"], hausdorff[".ply"], 1e-6);
+}
+
+TEST(Cli, MeshRunsPrintNoOpenMeshChatter)
+{
+    // OpenMesh's OBJ writer logs "[OBJWriter] : write file" on stderr for every file.
+    TempDir dir;
+    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    const test::CliResult r = runCli("mesh '" + dir.path("s.vdb") + "' -o '" + dir.path("m.obj") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err, "");
 }
 
 TEST(Cli, UnwritableOutputFails)
