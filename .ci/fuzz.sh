@@ -2,7 +2,7 @@
 # CI: builds the libFuzzer harnesses of fuzz/ with clang and runs each for a bounded time.
 #   bash .ci/fuzz.sh                          # from the repository root; builds in build-fuzz/
 #   PIPETILE_FUZZ_SECONDS=300 bash .ci/fuzz.sh
-# The regression inputs of fuzz/corpus_regressions/{contour,vdb}/ are replayed first; any of them
+# The regression inputs of fuzz/corpus_regressions/{contour,vdb,mesh}/ are replayed first; any of them
 # failing again fails the script. A new crash, sanitizer report, invariant trap, timeout or
 # out-of-memory in the timed run is reported with its input left in build-fuzz/artifacts/ (move it
 # to fuzz/corpus_regressions/<fuzzer>/ and add a test); it fails the script with
@@ -25,7 +25,7 @@ fi
 start=$SECONDS
 cmake -S . -B "$build" -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=RelWithDebInfo \
       -DPIPETILE_FUZZ=ON -DPIPETILE_BUILD_TESTS=OFF >/dev/null
-nice cmake --build "$build" -j"$jobs" --target fuzz_contour fuzz_vdb make_vdb_seeds
+nice cmake --build "$build" -j"$jobs" --target fuzz_contour fuzz_vdb fuzz_mesh make_vdb_seeds
 echo "fuzz.sh: build $((SECONDS - start)) s"
 # .vdb seeds are written by the installed OpenVDB (about 10 KB each, too big to keep in the tree).
 "$build/make_vdb_seeds" "$build/seeds/vdb" >/dev/null
@@ -48,7 +48,7 @@ run() { # run FUZZER NAME SEED_DIR EXTRA_FLAGS...
     for input in "${regressions[@]}"; do
       if ! "$build/$fuzzer" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=30 "$@" "$input" \
            >"$log.replay" 2>&1; then
-        grep -E "^(==[0-9]+==ERROR|SUMMARY|fuzz_contour: invariant|.*runtime error)" "$log.replay" | head -n 5 || true
+        grep -E "^(==[0-9]+==ERROR|SUMMARY|fuzz_(contour|mesh): invariant|.*runtime error)" "$log.replay" | head -n 5 || true
         echo "== $fuzzer: FAILS AGAIN on $input"
         failed=1
       fi
@@ -63,7 +63,7 @@ run() { # run FUZZER NAME SEED_DIR EXTRA_FLAGS...
   executions=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
   echo "== $fuzzer: ${executions:-?} executions, corpus $(ls "$corpus" | wc -l) inputs, exit $status"
   if [ "$status" != 0 ]; then
-    grep -E "^(==[0-9]+==ERROR|SUMMARY|fuzz_contour: invariant|.*runtime error)" "$log" | head -n 20 || true
+    grep -E "^(==[0-9]+==ERROR|SUMMARY|fuzz_(contour|mesh): invariant|.*runtime error)" "$log" | head -n 20 || true
     tail -n 60 "$log"
     echo "== $fuzzer: FOUND A CRASH; inputs in $artifacts/:"
     ls -l "$artifacts"
@@ -73,6 +73,7 @@ run() { # run FUZZER NAME SEED_DIR EXTRA_FLAGS...
 
 run fuzz_contour contour fuzz/seeds/contour -max_len=1100
 run fuzz_vdb vdb "$build/seeds/vdb" -max_len=24576
+run fuzz_mesh mesh fuzz/seeds/mesh -max_len=16384
 echo "fuzz.sh: total $((SECONDS - start)) s"
 if [ "$found" = 1 ]; then
   echo "fuzz.sh: NEW FINDINGS above: move each input to fuzz/corpus_regressions/<fuzzer>/ and add a test."

@@ -5,8 +5,10 @@
 #include <pipetile/contour.h>
 #include <pipetile/contour_tree.h>
 #include <pipetile/error.h>
+#include <pipetile/mesh_io.h>
 #include <pipetile/multires.h>
 #include <pipetile/tiler.h>
+#include <pipetile/validate.h>
 #include <pipetile/volume_grid.h>
 
 #include <gtest/gtest.h>
@@ -376,4 +378,19 @@ TEST(Regressions, RadialProfileMeetsThePolygonWhereTheRaysDo)
     }
     EXPECT_GT(checked, 0);
     EXPECT_GT(touching, 0); // the input holds what this test is about
+}
+
+TEST(Regressions, TetrahedraSharingAVertexReadAsWritten)
+{
+    // fuzz/corpus_regressions/mesh/tetrahedra_sharing_a_vertex.obj crashed OpenMesh's OBJ reader.
+    // As written: 7 vertices, 8 triangles, the origin a non-manifold vertex, every edge in two
+    // triangles, Euler 7 - 12 + 8 = 3.
+    const TriangleMesh mesh = readMesh(fuzzInput("mesh", "tetrahedra_sharing_a_vertex.obj"));
+    EXPECT_EQ(mesh.vertices.size(), 7u);
+    EXPECT_EQ(mesh.triangles.size(), 8u);
+    const Topology t = checkTopology(mesh);
+    EXPECT_EQ(t.nonManifoldVertices, 1);
+    EXPECT_EQ(t.firstNonManifoldVertex, 0);
+    EXPECT_EQ(t.boundaryEdges + t.nonManifoldEdges, 0);
+    EXPECT_EQ(t.euler, 3);
 }
