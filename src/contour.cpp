@@ -705,6 +705,17 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
                       image.origin + glm::ivec2(image.width, image.height));
 }
 
+namespace {
+
+// Whether a point lies off the loop's polygon by more than rounding.
+bool offPolygon(const BoundaryLoop& loop, const glm::dvec2& point)
+{
+    constexpr double kRounding = 1e-9; // pixels; crossings are placed to about 1e-12
+    return boundaryClearance(loop, point) > kRounding;
+}
+
+} // namespace
+
 bool liesInside(const BoundaryLoop& loop, const glm::dvec2& point)
 {
     return encloses(loop, point) && insidePolygon(loop.points, point);
@@ -718,7 +729,9 @@ bool centroidInside(const BoundaryLoop& loop)
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     if (loop.corners.empty()) return loop.centroid;
-    return centroidInside(loop) ? loop.centroid : deepestPixel(loop, near, std::numeric_limits<int>::max());
+    // A centroid on the polygon is inside only by rounding, and no rays can be cast from it.
+    const bool usable = centroidInside(loop) && offPolygon(loop, loop.centroid);
+    return usable ? loop.centroid : deepestPixel(loop, near, std::numeric_limits<int>::max());
 }
 
 glm::dvec2 clearPixelNear(const BoundaryLoop& loop, const glm::dvec2& near)
@@ -743,7 +756,9 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
         if (i > 0) total += wrappedDelta(view.turns[i] - view.turns[i - 1]);
     }
     if (m > 0) total += wrappedDelta(view.turns[0] - view.turns[m - 1]);
-    view.winding = static_cast<int>(std::lround(total));
+    // A centre on the polygon itself sees one of its segments as half a turn either way: it is
+    // wound around by no defined number of turns.
+    view.winding = offPolygon(loop, center) ? static_cast<int>(std::lround(total)) : 0;
     return view;
 }
 
