@@ -557,6 +557,39 @@ DistanceFunction partingDistance()
     };
 }
 
+/// Signed distance to the box [lo, hi] (exact: Euclidean outside, to the nearest face inside).
+double boxDistance(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi)
+{
+    const glm::dvec3 q = glm::max(lo - p, p - hi);
+    return glm::length(glm::max(q, 0.0)) + std::min(std::max(q.x, std::max(q.y, q.z)), 0.0);
+}
+
+DistanceFunction touchingBlocksDistance()
+{
+    // Voxels (x, y, z) in [10, 15] x [10, 15] x [10, 16] and in [16, 21] x [16, 21] x [16, 22]:
+    // on the voxel plane z = 16, voxels (15, 15) and (16, 16) touch along one voxel edge, and on
+    // the planes beside it only one of them is inside. volumeToMesh's cell tables leave such a
+    // contact open: two boxes, Euler 4, 2 components.
+    return [](const glm::dvec3& p) {
+        return std::min(boxDistance(p, {9.5, 9.5, 9.5}, {15.5, 15.5, 16.5}),
+                        boxDistance(p, {15.5, 15.5, 15.5}, {21.5, 21.5, 22.5}));
+    };
+}
+
+DistanceFunction stepsDistance()
+{
+    // Four steps k = 0..3, voxels [8 + 3k, 10 + 3k] x [8, 13] x [8 + 4k, 11 + 4k]: each touches the
+    // next only along voxel edges, across a voxel plane ((10 + 3k, y, 11 + 4k) and
+    // (11 + 3k, y, 12 + 4k)), six voxels deep along y. volumeToMesh's cell tables join such a
+    // contact: one staircase, Euler 2, 1 component.
+    return [](const glm::dvec3& p) {
+        double d = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 4; ++k)
+            d = std::min(d, boxDistance(p, {7.5 + 3 * k, 7.5, 7.5 + 4 * k}, {10.5 + 3 * k, 13.5, 11.5 + 4 * k}));
+        return d;
+    };
+}
+
 DistanceFunction ubendDistance()
 {
     // Arms along z through (32, 32) and (64, 32), z in [16, 88], radius 7 (gap 18), joined at the
@@ -811,6 +844,12 @@ const std::vector<SampleEntry>& sampleTable()
         {{"parting", "96x96x128 tree of six capsules; two branches part through one-pixel holes",
           {96, 96, 128}, 1.0, 2, 1},
          &partingDistance},
+        {{"touching-blocks", "32x32x32 two boxes touching along one voxel edge in a voxel plane: two surfaces",
+          {32, 32, 32}, 1.0, 4, 2},
+         &touchingBlocksDistance},
+        {{"steps", "32x24x32 four box steps, each touching the next along voxel edges across a voxel plane",
+          {32, 24, 32}, 1.0, 2, 1},
+         &stepsDistance},
     };
     return table;
 }

@@ -91,10 +91,12 @@ struct DirectPixels {
 };
 
 // The chain-code walk over every loop of an image, seeded from its east-facing cracks. `inside`
-// must read false outside [boxMin, boxMax] so that every walk closes; `value` is the field.
-template <class InsideFn, class ValueFn>
-std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& value, const DirectPixels& direct,
-                                     const std::vector<glm::ivec2>& eastCracks, glm::ivec2 boxMin, glm::ivec2 boxMax)
+// must read false outside [boxMin, boxMax] so that every walk closes; `value` is the field;
+// `saddleJoins(corner)` says whether the diagonal inside pixels of a saddle are one region.
+template <class InsideFn, class ValueFn, class SaddleFn>
+std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& value, const SaddleFn& saddleJoins,
+                                     const DirectPixels& direct, const std::vector<glm::ivec2>& eastCracks,
+                                     glm::ivec2 boxMin, glm::ivec2 boxMax)
 {
     std::vector<BoundaryLoop> loops;
     if (eastCracks.empty()) return loops;
@@ -146,8 +148,10 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             const bool aheadRight = ahead ? ahead[offset[(d + 3) & 3]] < 0.0
                                           : inside(c.x + kLeft[(d + 3) & 3].x, c.y + kLeft[(d + 3) & 3].y);
             const bool aheadLeft = ahead ? ahead[offset[d]] < 0.0 : inside(c.x + kLeft[d].x, c.y + kLeft[d].y);
-            if (aheadRight) d = (d + 3) & 3;  // inside continues to the right (8-connected)
-            else if (!aheadLeft) d = (d + 1) & 3; // inside ends ahead: turn left around it
+            // Inside continues to the right (8-connected, unless a saddle there is left open);
+            // where it ends ahead, turn left around it.
+            if (aheadRight && (aheadLeft || saddleJoins(c))) d = (d + 3) & 3;
+            else if (!aheadLeft) d = (d + 1) & 3;
             check(loop.corners.size() <= maxCorners, "boundary walk did not close");
         } while (!(c == start && d == 1));
         finishLoop(loop);
@@ -689,7 +693,8 @@ std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
                   glm::min(window.min + glm::ivec2(window.width, window.height) - 1, plan.pixelMax)};
     }
     return traceLoops([&](int u, int v) { return plane.inside(u, v); }, [&](int u, int v) { return plane.value(u, v); },
-                      direct, seeds, plan.pixelMin, plan.pixelMax + 1);
+                      [&](const glm::ivec2& corner) { return plane.saddleJoins(corner); }, direct, seeds,
+                      plan.pixelMin, plan.pixelMax + 1);
 }
 
 std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
@@ -700,10 +705,23 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
             if (image.inside(u, v) && !image.inside(u + 1, v)) seeds.push_back({u, v});
     const DirectPixels direct{image.values.data(), image.origin, image.width, image.origin + 1,
                               image.origin + glm::ivec2(image.width, image.height) - 1};
+    // An image has no planes beside it: every saddle joins (8-connected).
     return traceLoops([&](int u, int v) { return image.inside(u, v); },
-                      [&](int u, int v) { return image.value(u, v); }, direct, seeds, image.origin - 1,
+                      [&](int u, int v) { return image.value(u, v); }, [](const glm::ivec2&) { return true; },
+                      direct, seeds, image.origin - 1,
                       image.origin + glm::ivec2(image.width, image.height));
 }
+
+namespace {
+
+// Whether a point lies off the loop's polygon by more than rounding.
+bool offPolygon(const BoundaryLoop& loop, const glm::dvec2& point)
+{
+    constexpr double kRounding = 1e-9; // pixels; crossings are placed to about 1e-12
+    return boundaryClearance(loop, point) > kRounding;
+}
+
+} // namespace
 
 bool liesInside(const BoundaryLoop& loop, const glm::dvec2& point)
 {
@@ -718,7 +736,9 @@ bool centroidInside(const BoundaryLoop& loop)
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     if (loop.corners.empty()) return loop.centroid;
-    return centroidInside(loop) ? loop.centroid : deepestPixel(loop, near, std::numeric_limits<int>::max());
+    // A centroid on the polygon is inside only by rounding, and no rays can be cast from it.
+    const bool usable = centroidInside(loop) && offPolygon(loop, loop.centroid);
+    return usable ? loop.centroid : deepestPixel(loop, near, std::numeric_limits<int>::max());
 }
 
 glm::dvec2 clearPixelNear(const BoundaryLoop& loop, const glm::dvec2& near)
@@ -743,7 +763,9 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
         if (i > 0) total += wrappedDelta(view.turns[i] - view.turns[i - 1]);
     }
     if (m > 0) total += wrappedDelta(view.turns[0] - view.turns[m - 1]);
-    view.winding = static_cast<int>(std::lround(total));
+    // A centre on the polygon itself sees one of its segments as half a turn either way: it is
+    // wound around by no defined number of turns.
+    view.winding = offPolygon(loop, center) ? static_cast<int>(std::lround(total)) : 0;
     return view;
 }
 

@@ -253,8 +253,21 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
                 };
                 if (x + 1 < slab.width) link(l, {1, 0});
                 if (y + 1 < slab.height) link(l, {0, 1});
-                if (in && y + 1 < slab.height && x + 1 < slab.width) link(l, {1, 1});
-                if (in && y + 1 < slab.height && x > 0) link(l, {-1, 1});
+                // Diagonal pixels: inside ones are joined as the walk joins them, outside ones
+                // only through a saddle the walk leaves open.
+                auto linkDiagonal = [&](const glm::ivec2& offset) {
+                    const glm::ivec2 q = pixel + offset;
+                    const bool side1 = inside[slab.id(l, {q.x, pixel.y})], side2 = inside[slab.id(l, {pixel.x, q.y})];
+                    const bool saddle = side1 == side2 && side1 != in && inside[slab.id(l, q)] == in;
+                    if (!saddle) {
+                        if (in) link(l, offset);
+                        return;
+                    }
+                    const glm::ivec2 corner(std::max(pixel.x, q.x), std::max(pixel.y, q.y));
+                    if (in == planes[l].saddleJoins(corner)) link(l, offset);
+                };
+                if (y + 1 < slab.height && x + 1 < slab.width) linkDiagonal({1, 1});
+                if (y + 1 < slab.height && x > 0) linkDiagonal({-1, 1});
                 if (l + 1 < slab.depth) link(l + 1, {0, 0});
                 if (!in && (x == 0 || y == 0 || x + 1 == slab.width || y + 1 == slab.height)) slab.labels.join(p, exterior);
             }

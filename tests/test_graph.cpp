@@ -316,3 +316,15 @@ TEST(Graph, TBranchInTheSlicingPlane) { expectIsosurfaceTopology("tbranch"); }
 // pixel clear near its predecessor's (a jump to the centroid, by the inner edge, turned the
 // horns against each other's rays: 1.07 voxels off).
 TEST(Graph, HollowY) { expectIsosurfaceTopology("hollow-y"); }
+// Two boxes whose voxels touch along one voxel edge in a voxel plane, and nowhere else: the walk
+// joined the two diagonal pixels there (8-connected), one surface, where volumeToMesh has two
+// (a random capsule tree grew a handle this way). On voxel planes the walk and the slab now
+// leave such a saddle open as volumeToMesh's cell tables do. Boxes' sharp edges, not what the
+// tool is for, put the top level up to 2 voxels off at their corners: topology only.
+TEST(Graph, BlocksTouchingAlongAVoxelEdgeStayTwo) { expectIsosurfaceTopology("touching-blocks", 0, false); }
+// Known gap: steps touching the next only along voxel edges across a voxel plane. volumeToMesh
+// joins them (one surface, Euler 2); the slab links inside voxels across planes only where they
+// lie one above the other, and planes between voxel planes see no inside there at all, so each
+// step is a surface of its own (4 components, Euler 8). Random capsule trees 3 and 10 of 12
+// miss a handle or a void this way.
+TEST(Graph, DISABLED_KnownGapStepsTouchingAcrossAVoxelPlane) { expectIsosurfaceTopology("steps", 0, false); }

@@ -336,6 +336,35 @@ TEST(Regressions, CentreOnThePolygonGivesNoCrossingBehindIt)
     EXPECT_GT(checked, 0);
 }
 
+TEST(Regressions, CentreOnAPolygonSegmentIsNotACentre)
+{
+    // fuzz_contour: a 20 x 20 graded image (base 5 rays) with a loop whose centroid
+    // (7.472, 4.972) lies on its polygon's segment from (7.5, 5) to (7, 4.5), to rounding.
+    // liesInside() took it as inside, so it was the loop's central point; the segment spans half
+    // a turn around it either way, and ray 5 of 40, along the segment, got crackT = -0.0049:
+    // behind the centre. A centre on the polygon winds no defined number of times: castRays gives
+    // no contour from it, and centralPoint() takes the deepest pixel instead.
+    const FuzzImage f = readFuzzImage(fuzzInput("contour", "centroid_on_a_polygon_segment"));
+    const std::vector<BoundaryLoop> loops = traceBoundaries(f.image);
+    int onPolygon = 0;
+    for (const BoundaryLoop& loop : loops) {
+        if (boundaryClearance(loop, loop.centroid) > 1e-9) continue;
+        ++onPolygon;
+        EXPECT_TRUE(castRays(loop, loop.centroid, RaySet{f.baseRays, 3}, f.image).crossings.empty());
+        const glm::dvec2 center = centralPoint(loop);
+        EXPECT_GE(boundaryClearance(loop, center), 0.5); // a pixel centre, clear of its cracks
+        double reach = 0.0;
+        for (const glm::dvec2& p : loop.points) reach = std::max(reach, glm::distance(p, center));
+        const Contour c = castRays(loop, center, RaySet{f.baseRays, 3}, f.image);
+        EXPECT_FALSE(c.crossings.empty());
+        for (const Crossing& x : c.crossings) {
+            EXPECT_GE(x.crackT, 0.0) << "ray " << x.ray;
+            EXPECT_LE(x.crackT, reach) << "ray " << x.ray;
+        }
+    }
+    EXPECT_EQ(onPolygon, 1);
+}
+
 TEST(Regressions, RadialProfileMeetsThePolygonWhereTheRaysDo)
 {
     // fuzz_contour: the first radial profile (multires' slice choice) took the directions in

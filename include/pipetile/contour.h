@@ -126,7 +126,7 @@ std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane);
 std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
 
 /// A point inside the region a loop encloses, and inside its marching-squares polygon (what rays
-/// are cut against): its centroid when that lies inside, else the enclosed pixel farthest from the
+/// are cut against, and off it): its centroid when that lies inside, else the enclosed pixel farthest from the
 /// boundary (chamfer distance; C-shaped sections) that lies inside the polygon; with `near`, the
 /// one nearest `near` of those about as deep (a C's ridge: so a tube's central points follow it).
 glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near = nullptr);
@@ -160,8 +160,8 @@ struct LoopView {
                                      // that every contour winds counterclockwise around its centre
     std::vector<double> turns;       // angle of each polygon point around the centre, in turns,
                                      // in [0, 1)
-    int winding = 0;                 // turns the polygon makes around the centre; rays give a
-                                     // contour only when it is 1
+    int winding = 0;                 // turns the polygon makes around the centre (0 for a centre
+                                     // on it); rays give a contour only when it is 1
 };
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center);

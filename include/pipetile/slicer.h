@@ -63,6 +63,14 @@ public:
     void cell(int u, int v, double values[4]) const;
     /// Trilinear field at (u, v) on another plane w; end caps look past the last slice with it.
     double sampleAt(const glm::dvec2& uv, double w) const;
+    /// At a saddle, where the four pixels around `corner` (corner - (1, 1) to corner) are inside
+    /// on one diagonal and outside on the other: whether the two inside pixels are one region.
+    /// On a voxel plane, as volumeToMesh's cell tables decide it: they join the pair below the iso
+    /// value (the inside of a level set, the outside of a fog volume) unless, on both neighbouring
+    /// voxel planes, the block holds neither of the other two pixels below it nor both of these: a
+    /// contact along one voxel edge only, left open; the other pair is then the joined one.
+    /// Between voxel planes there is no such rule: joined, as the 8-connected walk always did.
+    bool saddleJoins(const glm::ivec2& corner) const;
     /// Pixels p inside whose neighbour p + (1, 0) is outside: every boundary loop has at least one
     /// such east-facing crack. Only the leaf nodes crossing the plane are scanned. Sorted (v, u).
     std::vector<glm::ivec2> eastCracks() const;
