@@ -590,6 +590,20 @@ DistanceFunction stepsDistance()
     };
 }
 
+DistanceFunction pillarsDistance()
+{
+    // Two pillars side by side, voxels y in [8, 13], z in [8, 24]: one at x in [8, 10] up to z = 14
+    // and [8, 9] above, the other at x in [12, 14] up to z = 14 and [11, 14] above. Voxels
+    // (10, y, 14) and (11, y, 15) touch along an edge across the voxel planes 14 and 15, six voxels
+    // deep along y, and nowhere else. volumeToMesh joins them: one surface, Euler 2.
+    return [](const glm::dvec3& p) {
+        return std::min({boxDistance(p, {7.5, 7.5, 7.5}, {10.5, 13.5, 14.5}),
+                         boxDistance(p, {7.5, 7.5, 14.5}, {9.5, 13.5, 24.5}),
+                         boxDistance(p, {11.5, 7.5, 7.5}, {14.5, 13.5, 14.5}),
+                         boxDistance(p, {10.5, 7.5, 14.5}, {14.5, 13.5, 24.5})});
+    };
+}
+
 DistanceFunction ubendDistance()
 {
     // Arms along z through (32, 32) and (64, 32), z in [16, 88], radius 7 (gap 18), joined at the
@@ -850,6 +864,9 @@ const std::vector<SampleEntry>& sampleTable()
         {{"steps", "32x24x32 four box steps, each touching the next along voxel edges across a voxel plane",
           {32, 24, 32}, 1.0, 2, 1},
          &stepsDistance},
+        {{"pillars", "24x24x32 two box pillars side by side, touching along voxel edges across a voxel plane",
+          {24, 24, 32}, 1.0, 2, 1},
+         &pillarsDistance},
     };
     return table;
 }

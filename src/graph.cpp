@@ -241,6 +241,34 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
     }
     const std::int32_t exterior = static_cast<std::int32_t>(inside.size());
     slab.labels = Labels(inside.size() + 1);
+    // Voxels one plane apart that touch along a voxel edge only (a saddle on the face between
+    // them) are joined or not as volumeToMesh decides, between two voxel planes; between planes
+    // that are not both voxel planes, no such contact is seen.
+    auto acrossVoxelPlanes = [&](int l) {
+        return l + 1 < slab.depth && layers[l] == std::floor(layers[l]) && layers[l + 1] == layers[l] + 1.0;
+    };
+    auto insideAt = [&](int l, const glm::ivec2& q) {
+        const glm::ivec2 r = q - slab.lo;
+        return r.x >= 0 && r.y >= 0 && r.x < slab.width && r.y < slab.height && inside[slab.id(l, q)];
+    };
+    const bool levelSet = volume.volumeClass() == VolumeClass::LevelSet;
+    auto linkAcrossSaddles = [&](int l, const glm::ivec2& p, bool in) {
+        for (const glm::ivec2 step : {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
+            const glm::ivec2 q = p + step;
+            if (insideAt(l + 1, q) != in || insideAt(l, q) == in || insideAt(l + 1, p) == in) continue;
+            // The face's four positions, p's pair first; its sides lie across the face's normal.
+            const glm::ivec2 normal(step.y, step.x);
+            bool beside[2][4];
+            for (int s = 0; s < 2; ++s) {
+                const glm::ivec2 shift = s == 0 ? -normal : normal;
+                const bool values[4] = {insideAt(l, p + shift), insideAt(l + 1, q + shift), insideAt(l, q + shift),
+                                        insideAt(l + 1, p + shift)};
+                for (int k = 0; k < 4; ++k) beside[s][k] = in ? values[k] : values[(k + 2) % 4];
+            }
+            if (in == saddleJoinsInside(levelSet, beside))
+                slab.labels.join(slab.id(l, p), slab.id(l + 1, q));
+        }
+    };
     for (int l = 0; l < slab.depth; ++l)
         for (int y = 0; y < slab.height; ++y)
             for (int x = 0; x < slab.width; ++x) {
@@ -269,6 +297,7 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
                 if (y + 1 < slab.height && x + 1 < slab.width) linkDiagonal({1, 1});
                 if (y + 1 < slab.height && x > 0) linkDiagonal({-1, 1});
                 if (l + 1 < slab.depth) link(l + 1, {0, 0});
+                if (acrossVoxelPlanes(l)) linkAcrossSaddles(l, pixel, in);
                 if (!in && (x == 0 || y == 0 || x + 1 == slab.width || y + 1 == slab.height)) slab.labels.join(p, exterior);
             }
     return slab;
@@ -358,7 +387,18 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
         const auto bandsOnly = [](const std::vector<SlabPiece>& ps) {
             return std::all_of(ps.begin(), ps.end(), [](const SlabPiece& p) { return p.kind == EventKind::Band; });
         };
-        if (wAbove - wBelow <= minThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper))) {
+        // Nor may a plane between voxel planes: the slab's labelling saw the voxel planes around
+        // it, including contacts across them (voxels touching along an edge) that a plane
+        // between them cannot show. Its pieces' Euler characteristics must add up to the slab's.
+        const auto euler = [](const std::vector<SlabPiece>& ps) {
+            int sum = 0;
+            for (const SlabPiece& p : ps) sum += p.euler();
+            return sum;
+        };
+        const double wMiddle = planes[middle].w;
+        const bool betweenVoxelPlanes = wMiddle != std::floor(wMiddle);
+        if ((betweenVoxelPlanes && euler(lower) + euler(upper) != euler(pieces)) ||
+            (wAbove - wBelow <= minThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper)))) {
             dropLastPlane();
             graph.slabs.push_back({below, above, std::move(pieces)});
             return;

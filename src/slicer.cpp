@@ -279,29 +279,32 @@ double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
     return r == 0.0 ? lower : lower + r * (bilinear(wi + 1) - lower);
 }
 
+bool saddleJoinsInside(bool levelSet, const bool beside[2][4])
+{
+    bool joined = false; // volumeToMesh's own pair: ours for a level set, the other for fog
+    for (int s = 0; s < 2; ++s) {
+        auto below = [&](int k) { return beside[s][k] == levelSet; };
+        const int own = levelSet ? 0 : 2, other = levelSet ? 2 : 0;
+        joined = joined || (below(own) && below(own + 1)) || below(other) || below(other + 1);
+    }
+    return levelSet ? joined : !joined;
+}
+
 bool SlicePlane::saddleJoins(const glm::ivec2& corner) const
 {
     const Impl& im = *mImpl;
     if (im.frac != 0.0) return true;
-    // volumeToMesh's own inside is below the iso value: the inside of a level set, the outside of
-    // a fog volume. Its rule is about its own inside pair.
-    const bool levelSet = im.sign > 0.0;
     const SlicePlan& p = *im.plan;
-    auto ours = [&](const glm::ivec2& q, int wi) {
+    auto inside = [&](const glm::ivec2& q, int wi) {
         const bool boxed = q.x >= p.pixelMin.x && q.y >= p.pixelMin.y && q.x <= p.pixelMax.x && q.y <= p.pixelMax.y;
         return boxed && im.voxel(q.x, q.y, wi) < 0.0;
     };
-    auto below = [&](const glm::ivec2& q, int wi) { return ours(q, wi) == levelSet; };
-    const glm::ivec2 a = corner - 1, b = corner, c(corner.x, corner.y - 1), d(corner.x - 1, corner.y);
-    const bool pairAB = below(a, im.w0); // volumeToMesh's inside pair is a, b (else c, d)
-    bool joined = false;
-    for (const int wi : {im.w0 - 1, im.w0 + 1}) {
-        const bool pair = pairAB ? below(a, wi) && below(b, wi) : below(c, wi) && below(d, wi);
-        const bool across = pairAB ? below(c, wi) || below(d, wi) : below(a, wi) || below(b, wi);
-        joined = joined || pair || across;
-    }
-    // Its pair joined leaves the other pair apart, and the other way round.
-    return levelSet ? joined : !joined;
+    glm::ivec2 block[4] = {corner - 1, corner, {corner.x, corner.y - 1}, {corner.x - 1, corner.y}};
+    if (!inside(block[0], im.w0)) std::swap(block[0], block[2]), std::swap(block[1], block[3]); // inside pair first
+    bool beside[2][4];
+    for (int s = 0; s < 2; ++s)
+        for (int k = 0; k < 4; ++k) beside[s][k] = inside(block[k], im.w0 + (s == 0 ? -1 : 1));
+    return saddleJoinsInside(im.sign > 0.0, beside);
 }
 
 SlicePlane::Window SlicePlane::window() const

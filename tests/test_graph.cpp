@@ -322,9 +322,17 @@ TEST(Graph, HollowY) { expectIsosurfaceTopology("hollow-y"); }
 // leave such a saddle open as volumeToMesh's cell tables do. Boxes' sharp edges, not what the
 // tool is for, put the top level up to 2 voxels off at their corners: topology only.
 TEST(Graph, BlocksTouchingAlongAVoxelEdgeStayTwo) { expectIsosurfaceTopology("touching-blocks", 0, false); }
-// Known gap: steps touching the next only along voxel edges across a voxel plane. volumeToMesh
-// joins them (one surface, Euler 2); the slab links inside voxels across planes only where they
-// lie one above the other, and planes between voxel planes see no inside there at all, so each
-// step is a surface of its own (4 components, Euler 8). Random capsule trees 3 and 10 of 12
-// miss a handle or a void this way.
-TEST(Graph, DISABLED_KnownGapStepsTouchingAcrossAVoxelPlane) { expectIsosurfaceTopology("steps", 0, false); }
+// Steps touching the next only along voxel edges across a voxel plane: volumeToMesh joins them
+// (one surface, Euler 2). The slab linked inside voxels across planes only one above the other,
+// so each step was a surface of its own (Euler 8, 4 components); between two voxel planes it now
+// links such contacts as volumeToMesh does, and a plane added between voxel planes, which cannot
+// show them, is dropped when its halves disagree with the slab's Euler characteristic (a random
+// capsule tree's void, closed off by such contacts, was lost).
+TEST(Graph, StepsTouchingAcrossAVoxelPlane) { expectIsosurfaceTopology("steps"); }
+// Known gap: two pillars, each with a loop of its own on every plane, touching along voxel edges
+// across a voxel plane. volumeToMesh joins them (Euler 2, 1 component). A slab whose loops each
+// overlap one loop of the other plane is taken as bands without labelling, so the contact is not
+// seen (Euler 4, 2 components); labelling it finds one piece against two loops on each side, two
+// saddles in one voxel that no plane between voxel planes can part, left unresolved and capped.
+// A random capsule tree (3 of 12) misses a handle this way.
+TEST(Graph, DISABLED_KnownGapPillarsTouchingAcrossAVoxelPlane) { expectIsosurfaceTopology("pillars", 0, false); }

@@ -138,7 +138,7 @@ TEST(Samples, ListHasTheIssuesSamplesPhantomFirst)
     const std::vector<std::string> expected = {
         "phantom", "straight", "helix", "bean", "hollow", "ybranch", "two-tubes", "tbranch",
         "trifurcation", "ubend", "xcross", "torus-flat", "torus-standing", "two-tori", "hollow-y",
-        "lumen-rod", "tank", "tree", "serpentine", "oblique", "parting", "touching-blocks", "steps"};
+        "lumen-rod", "tank", "tree", "serpentine", "oblique", "parting", "touching-blocks", "steps", "pillars"};
     std::vector<std::string> names;
     for (const SampleInfo& info : sampleList()) {
         names.push_back(info.name);

@@ -43,6 +43,16 @@ glm::dvec3 planeToIndex(int axis, const glm::dvec2& uv, double w);
 /// @throw UsageError if the spacing is not a finite number in [0.1, 1000].
 SlicePlan planSlices(const Volume& volume, const SliceOptions& options);
 
+/// A saddle face of four voxels: two diagonal corners inside, the other two outside. Whether the
+/// inside pair is one region, as volumeToMesh's cell tables decide it from the two faces beside
+/// it (the same four positions shifted one voxel either way along the face's normal):
+/// `beside[s]` holds, on side s, whether the inside pair's two positions and then the outside
+/// pair's two are inside. The tables join the pair below the iso value (the inside of a level
+/// set, the outside of a fog volume) unless neither side holds one of the other pair's positions
+/// below it nor both of its own: a contact along one voxel edge only, left open; the other pair is
+/// then the joined one. (Found on all 256 configurations of the two sides.)
+bool saddleJoinsInside(bool levelSet, const bool beside[2][4]);
+
 /// The signed field (negative inside) on one slice plane. Stateful: it owns an OpenVDB accessor,
 /// so use one object per thread. Values between voxel planes are interpolated linearly along w.
 class SlicePlane {
@@ -65,11 +75,9 @@ public:
     double sampleAt(const glm::dvec2& uv, double w) const;
     /// At a saddle, where the four pixels around `corner` (corner - (1, 1) to corner) are inside
     /// on one diagonal and outside on the other: whether the two inside pixels are one region.
-    /// On a voxel plane, as volumeToMesh's cell tables decide it: they join the pair below the iso
-    /// value (the inside of a level set, the outside of a fog volume) unless, on both neighbouring
-    /// voxel planes, the block holds neither of the other two pixels below it nor both of these: a
-    /// contact along one voxel edge only, left open; the other pair is then the joined one.
-    /// Between voxel planes there is no such rule: joined, as the 8-connected walk always did.
+    /// On a voxel plane, as volumeToMesh decides it (saddleJoinsInside, with the voxel planes on
+    /// either side); between voxel planes there is no such rule: joined, as the 8-connected walk
+    /// always did.
     bool saddleJoins(const glm::ivec2& corner) const;
     /// Pixels p inside whose neighbour p + (1, 0) is outside: every boundary loop has at least one
     /// such east-facing crack. Only the leaf nodes crossing the plane are scanned. Sorted (v, u).
