@@ -11,10 +11,12 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <limits>
 #include <memory>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -107,7 +109,69 @@ void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t 
     throw std::logic_error("pipetile internal invariant broken: a contour edge lies in no triangle of its band");
 }
 
+// For each vertex of `coarse`, a vertex of `fine` at the same position, bit for bit; each vertex of
+// `fine` is taken once, duplicates in order. Sorting by the coordinates' bits finds them.
+std::vector<std::uint32_t> matchVertices(const std::vector<glm::dvec3>& coarse, const std::vector<glm::dvec3>& fine, int level)
+{
+    using Key = std::array<std::uint64_t, 3>;
+    auto keyOf = [](const glm::dvec3& p) {
+        Key key;
+        std::memcpy(key.data(), &p[0], sizeof key);
+        return key;
+    };
+    std::vector<std::pair<Key, std::uint32_t>> sorted(fine.size());
+    for (std::size_t v = 0; v < fine.size(); ++v) sorted[v] = {keyOf(fine[v]), static_cast<std::uint32_t>(v)};
+    std::sort(sorted.begin(), sorted.end());
+    std::vector<bool> taken(sorted.size(), false);
+    std::vector<std::uint32_t> match(coarse.size());
+    for (std::size_t v = 0; v < coarse.size(); ++v) {
+        const Key key = keyOf(coarse[v]);
+        auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(key, std::uint32_t(0)));
+        while (it != sorted.end() && it->first == key && taken[it - sorted.begin()]) ++it;
+        if (it == sorted.end() || it->first != key)
+            throw std::logic_error("pipetile internal invariant broken: vertex " + std::to_string(v) + " of level " +
+                                   std::to_string(level) + " is not a vertex of level " + std::to_string(level + 1));
+        taken[it - sorted.begin()] = true;
+        match[v] = it->second;
+    }
+    return match;
+}
+
 } // namespace
+
+NestedLevels nestLevels(const std::vector<LevelMesh>& levels)
+{
+    NestedLevels nested;
+    if (levels.empty()) return nested;
+    const std::vector<glm::dvec3>& finest = levels.back().mesh.vertices;
+    // toFinest[L][v]: level L's vertex v in the finest level, composed down the levels.
+    std::vector<std::vector<std::uint32_t>> toFinest(levels.size());
+    toFinest.back().resize(finest.size());
+    for (std::size_t v = 0; v < finest.size(); ++v) toFinest.back()[v] = static_cast<std::uint32_t>(v);
+    for (std::size_t L = levels.size() - 1; L-- > 0;) {
+        const std::vector<std::uint32_t> match =
+            matchVertices(levels[L].mesh.vertices, levels[L + 1].mesh.vertices, static_cast<int>(L));
+        toFinest[L].resize(match.size());
+        for (std::size_t v = 0; v < match.size(); ++v) toFinest[L][v] = toFinest[L + 1][match[v]];
+    }
+    // Coarse-first: level 0's vertices in its own order, then what each level adds, in its order.
+    constexpr std::uint32_t kUnset = std::numeric_limits<std::uint32_t>::max();
+    std::vector<std::uint32_t> newId(finest.size(), kUnset);
+    nested.vertices.reserve(finest.size());
+    for (std::size_t L = 0; L < levels.size(); ++L) {
+        for (std::uint32_t f : toFinest[L])
+            if (newId[f] == kUnset) {
+                newId[f] = static_cast<std::uint32_t>(nested.vertices.size());
+                nested.vertices.push_back(finest[f]);
+            }
+        nested.vertexCounts.push_back(nested.vertices.size());
+        std::vector<Triangle> triangles = levels[L].mesh.triangles;
+        for (Triangle& t : triangles)
+            for (std::uint32_t& v : t) v = newId[toFinest[L][v]];
+        nested.triangles.push_back(std::move(triangles));
+    }
+    return nested;
+}
 
 void checkMeshOptions(const MeshOptions& options)
 {

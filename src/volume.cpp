@@ -7,6 +7,7 @@
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
+#include <openvdb/tools/Dense.h>
 #include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
@@ -134,6 +135,30 @@ openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::strin
                     ": the file ends before the grid's data does; it is truncated or damaged");
     }
     throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " could not be read back");
+}
+
+Error nonFiniteError(const std::string& where, long long count, bool finiteBackground, const char* what)
+{
+    return Error(where + ": holds " + std::to_string(count) + " NaN or infinite values" +
+                 (finiteBackground ? "" : " (and a non-finite background)") + "; repair the " + what +
+                 " (e.g. clamp it) before meshing");
+}
+
+// OpenVDB's matrices act on row vectors (translation in the last row): the transpose of `m`.
+openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m, const std::string& where)
+{
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r)
+            if (!std::isfinite(m[c][r])) throw UsageError(where + ": the index-to-world matrix holds a non-finite value");
+    if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
+        throw UsageError(where + ": the index-to-world matrix's last row must be (0, 0, 0, 1), world = M (i, j, k, 1); "
+                                 "a matrix for row vectors, as OpenVDB's, must be transposed");
+    openvdb::math::Mat4d rows;
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) rows(r, c) = m[r][c];
+    const double det = rows.getMat3().det();
+    if (!(std::abs(det) > 0.0)) throw UsageError(where + ": the index-to-world matrix is singular (its voxels have no volume)");
+    return openvdb::math::Transform::createLinearTransform(rows);
 }
 
 } // namespace
@@ -278,10 +303,7 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
         lo = std::min(lo, v);
         hi = std::max(hi, v);
     }
-    if (nonFinite > 0 || !std::isfinite(background))
-        throw Error(where + ": holds " + std::to_string(nonFinite) + " NaN or infinite values" +
-                    (std::isfinite(background) ? "" : " (and a non-finite background)") +
-                    "; repair the grid (e.g. clamp it) before meshing");
+    if (nonFinite > 0 || !std::isfinite(background)) throw nonFiniteError(where, nonFinite, std::isfinite(background), "grid");
 
     auto impl = std::make_shared<Volume::Impl>();
     impl->grid = grid;
@@ -316,6 +338,41 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
                     formatValue(iso) + ", so the object is unbounded; check the grid class (" +
                     toString(impl->volumeClass) + ") or choose another --iso");
     return Volume(impl);
+}
+
+Volume volumeFromDense(const DenseVolume& dense, const VolumeOptions& options, const std::string& source)
+{
+    initializeOpenVdb();
+    const std::string where = inQuotes(source);
+    if (dense.dims.x <= 0 || dense.dims.y <= 0 || dense.dims.z <= 0)
+        throw UsageError(where + ": a dense volume needs at least one voxel along each axis");
+    if (!dense.values) throw UsageError(where + ": no values");
+    const openvdb::math::Transform::Ptr transform = transformOf(dense.indexToWorld, where);
+
+    // The background is the value of empty space: the largest of a signed distance field, the
+    // smallest of a density. NaN would compare as neither and vanish into it, so it is refused here.
+    const std::size_t count = std::size_t(dense.dims.x) * std::size_t(dense.dims.y) * std::size_t(dense.dims.z);
+    const bool levelSet = dense.volumeClass == VolumeClass::LevelSet;
+    float background = 0.0f;
+    long long nonFinite = 0;
+    bool first = true;
+    for (std::size_t n = 0; n < count; ++n) {
+        const float v = dense.values[n];
+        if (!std::isfinite(v)) { ++nonFinite; continue; }
+        if (first || (levelSet ? v > background : v < background)) background = v;
+        first = false;
+    }
+    if (nonFinite > 0) throw nonFiniteError(where, nonFinite, true, "array");
+
+    const openvdb::CoordBBox box(openvdb::Coord(0), openvdb::Coord(dense.dims.x - 1, dense.dims.y - 1, dense.dims.z - 1));
+    // LayoutZYX: z varies fastest, numpy's C order for array[x, y, z]. copyFromDense only reads.
+    const openvdb::tools::Dense<float, openvdb::tools::LayoutZYX> block(box, const_cast<float*>(dense.values));
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(background);
+    openvdb::tools::copyFromDense(block, *grid, /*tolerance=*/0.0f);
+    grid->setTransform(transform);
+    grid->setGridClass(levelSet ? openvdb::GRID_LEVEL_SET : openvdb::GRID_FOG_VOLUME);
+    grid->setName(options.gridName);
+    return volumeFromGrid(grid, options, source);
 }
 
 void writeVolume(const Volume& volume, const std::string& path)

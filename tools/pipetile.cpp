@@ -5,6 +5,7 @@
 #include <pipetile/pipetile.h>
 
 #include "bench.h"
+#include "report.h"
 #include "phantoms.h"
 
 #include <CLI/CLI.hpp>
@@ -27,8 +28,6 @@ using nlohmann::json;
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-const char* axisName(int axis) { return axis == 0 ? "x" : axis == 1 ? "y" : "z"; }
-
 void writeJson(const json& report, const std::string& path)
 {
     pipetile::detail::writeAtomically(path, [&](const std::string& tmp) {
@@ -46,57 +45,6 @@ std::string levelPath(const std::string& output, int level)
     std::filesystem::path name = p.parent_path() / (p.stem().string() + "_L" + std::to_string(level));
     name += p.extension();
     return name.string();
-}
-
-json distanceJson(const pipetile::DistanceStats& d, double voxel)
-{
-    return {{"max", d.max}, {"mean", d.mean}, {"rms", d.rms}, {"max_voxels", d.max / voxel},
-            {"mean_voxels", d.mean / voxel}, {"rms_voxels", d.rms / voxel}, {"samples", d.samples}};
-}
-
-// The report's validation block (DESIGN.md): distances in world units, plus the same in voxels.
-// The skeleton: segments with their ends and extent along the slicing axis (index space), and
-// the junctions joining them.
-json graphJson(const pipetile::Reconstruction& reconstruction)
-{
-    const pipetile::Skeleton skeleton = reconstruction.skeleton();
-    json segments = json::array(), junctions = json::array();
-    for (const pipetile::Skeleton::Segment& s : skeleton.segments)
-        segments.push_back({{"hole", s.hole}, {"first_w", s.wFirst}, {"last_w", s.wLast}, {"contours", s.contours},
-                            {"bottom", s.bottom}, {"top", s.top}, {"bottom_junction", s.bottomJunction},
-                            {"top_junction", s.topJunction}});
-    for (const pipetile::Skeleton::Junction& j : skeleton.junctions)
-        junctions.push_back({{"kind", pipetile::toString(j.kind)}, {"w", j.w}, {"crotch_w", j.crotchW},
-                             {"single", j.single}, {"partners", j.partners}});
-    json unresolved = json::array();
-    for (const pipetile::Skeleton::Unresolved& u : skeleton.unresolved)
-        unresolved.push_back({{"w_below", u.wBelow}, {"w_above", u.wAbove}, {"walls_below", u.wallsBelow},
-                              {"holes_below", u.holesBelow}, {"walls_above", u.wallsAbove}, {"holes_above", u.holesAbove}});
-    return {{"segments", segments}, {"junctions", junctions}, {"unresolved", unresolved}};
-}
-
-json validationJson(const pipetile::Validation& v)
-{
-    const pipetile::Topology& t = v.topology;
-    json j = {
-        {"hausdorff", v.symmetric.max}, {"mean", v.symmetric.mean}, {"rms", v.symmetric.rms}, {"voxel", v.voxel},
-        {"hausdorff_voxels", v.symmetric.max / v.voxel}, {"mean_voxels", v.symmetric.mean / v.voxel},
-        {"rms_voxels", v.symmetric.rms / v.voxel},
-        {"mesh_to_reference", distanceJson(v.meshToReference, v.voxel)},
-        {"reference_to_mesh", distanceJson(v.referenceToMesh, v.voxel)},
-        {"closed", t.closed()}, {"manifold", t.manifold()}, {"oriented", t.oriented()}, {"outward", t.outward()},
-        {"euler", t.euler}, {"components", t.components}, {"boundary_edges", t.boundaryEdges},
-        {"non_manifold_edges", t.nonManifoldEdges}, {"non_manifold_vertices", t.nonManifoldVertices},
-        {"misoriented_edges", t.misorientedEdges},
-        {"area", v.quality.area}, {"reference_area", v.referenceArea},
-        {"volume", t.signedVolume}, {"reference_volume", v.referenceVolume},
-        {"smallest_angle", v.quality.smallestAngle}, {"largest_aspect", v.quality.largestAspect},
-        {"degenerate_triangles", v.quality.degenerate},
-        {"reference_triangles", v.referenceTriangles}, {"reference_seconds", v.referenceSeconds},
-        {"seconds", v.seconds},
-    };
-    if (v.hasLevelSet) j["level_set"] = distanceJson(v.levelSet, v.voxel);
-    return j;
 }
 
 // What is wrong with a mesh's topology, in words, with where the first non-manifold edge and
@@ -251,62 +199,16 @@ int runMesh(const MeshArgs& args)
     }
 
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
-    json report = {
-        {"input", volume.source()},
-        {"grid", volume.gridName()},
-        {"class", pipetile::toString(volume.volumeClass())},
-        {"iso", volume.iso()},
-        {"axis", axisName(reconstruction.plan().axis)},
-        {"tiler", args.tiler},
-        {"every_slice", args.everySlice},
-        {"spacing", options.slicing.spacingVoxels},
-        {"voxel", volume.smallestVoxel()},
-        {"slices", stats.slices},
-        {"statistics", {{"empty_slices", stats.emptySlices}, {"contours", stats.contours}, {"holes", stats.holes},
-                        {"tubes", stats.tubes}, {"dropped_small_contours", stats.droppedSmall},
-                        {"dropped_unwound_contours", stats.droppedUnwound},
-                        {"dropped_flat_contours", stats.droppedFlat}, {"end_contours", stats.endContours},
-                        {"flat_caps", stats.flatCaps}, {"clipped_caps", stats.clippedCaps},
-                        {"annular_caps", stats.annularCaps}, {"caps", stats.caps},
-                        {"seconds", stats.seconds}}},
-        {"events", {{"starts", stats.starts}, {"ends", stats.ends}, {"forks", stats.forks}, {"merges", stats.merges},
-                    {"saddles", stats.saddles}, {"rims", stats.rims}, {"unresolved", stats.unresolvedEvents},
-                    {"unresolved_junctions", stats.unresolvedJunctions}, {"planes_added", stats.addedPlanes},
-                    {"euler", stats.eventEuler}, {"built_euler", stats.caps - stats.saddles}}},
-        {"graph", graphJson(reconstruction)},
-        {"levels", json::array()},
-    };
+    json report = pipetile::tools::meshReport(volume, reconstruction);
     std::printf("%s  grid '%s' (%s, iso %g), axis %s, %d slices, %d contours in %d tubes\n", volume.source().c_str(),
                 volume.gridName().c_str(), pipetile::toString(volume.volumeClass()), volume.iso(),
-                axisName(reconstruction.plan().axis), stats.slices, stats.contours, stats.tubes);
+                pipetile::tools::axisName(reconstruction.plan().axis), stats.slices, stats.contours, stats.tubes);
     std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
     for (std::size_t k = 0; k < levels.size(); ++k) {
         const pipetile::LevelMesh& level = levels[k];
-        report["levels"].push_back({
-            {"level", level.level},
-            {"rays", level.rays},
-            {"added_rays", level.addedRays},
-            {"file", written[k]},
-            {"vertices", level.mesh.vertices.size()},
-            {"triangles", level.mesh.triangles.size()},
-            {"seconds", level.seconds},
-            {"built_by", level.level == 0 ? "casting every ray" : "refining the previous level"},
-            {"casting_seconds", level.castingSeconds},
-            {"tiling_seconds", level.tilingSeconds},
-            {"tiling_bytes", level.tilingBytes},
-            {"contours", level.contours},
-            {"skipped_contours", level.skippedContours},
-            {"ambiguous_contours", level.ambiguousContours},
-            {"ambiguous_sectors", level.ambiguousSectors},
-            {"interpolation_fallbacks", level.interpolationFallbacks},
-        });
-        if (!args.report.empty()) {
-            // The level's own Euler characteristic, against the events' (a linear pass over the
-            // triangles, so only when a report is asked for).
-            const pipetile::Topology topology = pipetile::checkTopology(level.mesh);
-            report["levels"][k]["euler"] = topology.euler;
-            report["levels"][k]["components"] = topology.components;
-        }
+        // The level's own topology is a linear pass over its triangles: only when a report is asked for.
+        report["levels"].push_back(pipetile::tools::levelReport(level, !args.report.empty()));
+        report["levels"][k]["file"] = written[k];
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
                     level.mesh.triangles.size(), level.seconds, written[k].c_str());
     }
@@ -319,7 +221,7 @@ int runMesh(const MeshArgs& args)
         printValidationHeader();
         for (std::size_t k = 0; k < levels.size(); ++k) {
             const pipetile::Validation v = validator.validate(levels[k].mesh);
-            report["levels"][k]["validation"] = validationJson(v);
+            report["levels"][k]["validation"] = pipetile::tools::validationReport(v);
             printValidationRow("L" + std::to_string(levels[k].level), v);
         }
     }
@@ -371,7 +273,7 @@ int runValidate(const ValidateArgs& args)
     if (!args.report.empty()) {
         json report = {{"input", args.input}, {"grid", volume.gridName()}, {"iso", volume.iso()}, {"mesh", args.mesh},
                        {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
-                       {"validation", validationJson(v)}};
+                       {"validation", pipetile::tools::validationReport(v)}};
         writeJson(report, args.report);
     }
     return 0;

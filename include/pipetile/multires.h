@@ -282,6 +282,22 @@ private:
     LevelMesh mMesh;
 };
 
+/// Levels of detail over one vertex array, for programs that keep every level (a viewer, a
+/// numpy caller): the finest level's vertices ordered coarse-first, so that level L's vertices
+/// are the first vertexCounts[L] of them, and each level's triangles index that array.
+struct NestedLevels {
+    std::vector<glm::dvec3> vertices;             // the finest level's, world space
+    std::vector<std::size_t> vertexCounts;        // per level, non-decreasing; the last is vertices.size()
+    std::vector<std::vector<Triangle>> triangles; // per level, the level's own triangles renumbered
+};
+
+/// Renumbers `levels` (level 0 first, each the next one's coarser level, as Refinement builds
+/// them) into NestedLevels. Levels nest bit for bit (multires above), so each vertex of level L is
+/// found among level L+1's by its exact coordinates; equal positions are paired in order, which
+/// keeps every level the same mesh up to renumbering. Linear-logarithmic in the vertices.
+/// @throw std::logic_error if a vertex of a level is not a vertex of the next (an internal invariant).
+NestedLevels nestLevels(const std::vector<LevelMesh>& levels);
+
 /// Checks options against what the machine and the grid can support.
 /// @throw UsageError naming the parameter and its allowed range.
 void checkMeshOptions(const MeshOptions& options);

@@ -4,6 +4,7 @@
 // the module (building a Volume from a grid a caller already has) is in volume_grid.h.
 #pragma once
 
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
 #include <memory>
@@ -79,6 +80,29 @@ std::vector<GridSummary> listGrids(const std::string& path);
 /// can be meshed: finite values, a background outside the object, an isovalue that crosses it.
 /// @throw Error naming the file, the grid and what to do, for each of those problems.
 Volume readVolume(const std::string& path, const VolumeOptions& options = {});
+
+/// A dense block of voxel values held by an embedding program (a numpy array, an image stack).
+/// The values are read, not kept: the caller may free them once volumeFromDense returns.
+struct DenseVolume {
+    const float* values = nullptr; // dims.x * dims.y * dims.z values in C order (the last index
+                                   // varies fastest): values[(i * dims.y + j) * dims.z + k] is
+                                   // voxel (i, j, k), as numpy's array[i, j, k]
+    glm::ivec3 dims{0};
+    glm::dmat4 indexToWorld{1.0};  // world = indexToWorld * (i, j, k, 1), column vectors (glm's and
+                                   // nibabel's convention); last row (0, 0, 0, 1), invertible
+    VolumeClass volumeClass = VolumeClass::LevelSet; // the values' meaning: a dense array carries
+                                   // no class, so the caller names it
+};
+
+/// Builds a sparse grid from a dense block and checks it as readVolume does. The background, the
+/// value outside the object, is the largest value for a level set and the smallest for a fog
+/// volume (0 for a 0..1 density, -1000 for CT); voxels equal to it are inactive, so a level set's
+/// default isovalue is 0 and a fog volume's is halfway from the background to the densest value,
+/// as for a .vdb file. `source` names the volume in messages and reports; options.gridName names
+/// the grid.
+/// @throw UsageError if dims are not positive, values is null, or the matrix is not an invertible
+///        affine map; Error for what readVolume refuses (NaN values, an isovalue crossing nothing).
+Volume volumeFromDense(const DenseVolume& dense, const VolumeOptions& options, const std::string& source);
 
 /// Writes the volume's grid to a .vdb file through a temporary file and a rename, so a failure
 /// never leaves half a file. @throw Error if the file cannot be written.

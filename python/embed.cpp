@@ -1,0 +1,36 @@
+// pipetile — the Python module's work, in C++ free of pybind11 and OpenVDB.
+
+#include "embed.h"
+
+#include "report.h"
+
+#include <pipetile/validate.h>
+
+#include <chrono>
+
+namespace pipetile::python {
+
+MeshedLevels meshLevels(const Volume& volume, const MeshOptions& options)
+{
+    const auto start = std::chrono::steady_clock::now();
+    const Reconstruction reconstruction(volume, options);
+    Refinement refinement(reconstruction);
+    std::vector<LevelMesh> levels{refinement.mesh()};
+    while (refinement.canRefine()) levels.push_back(refinement.refine());
+
+    nlohmann::json report = tools::meshReport(volume, reconstruction);
+    for (const LevelMesh& level : levels) report["levels"].push_back(tools::levelReport(level, /*topology=*/true));
+    MeshedLevels result{nestLevels(levels), {}};
+    // Meshing and the levels' topology; unlike the CLI's, reading the volume and writing files are not in it.
+    report["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.report = report.dump();
+    return result;
+}
+
+std::string validateMesh(const Volume& volume, const TriangleMesh& mesh, int threads)
+{
+    const Validator validator(volume, {1.0, threads});
+    return tools::validationReport(validator.validate(mesh)).dump();
+}
+
+} // namespace pipetile::python
