@@ -66,7 +66,8 @@ struct Labels {
 
 // A loop of each plane overlapping exactly one loop of the same kind on the other plane, both
 // ways: then every piece is a band, and the slab needs no labelling. Overlap is a bounding-box
-// test followed by one central point inside the other loop.
+// test followed by one central point inside the other loop; boxes a pixel apart count as
+// overlapping, as voxels touching along an edge across the slab may join them.
 bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<SlabPiece>& pieces)
 {
     if (below.loops.size() != above.loops.size()) return false;
@@ -75,7 +76,9 @@ bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<S
     std::vector<int> partnerOfAbove(above.loops.size(), -1);
     for (std::size_t i = 0; i < below.loops.size(); ++i) {
         const BoundaryLoop& a = *below.loops[i];
-        const PixelBox box = boxOf(a);
+        PixelBox box = boxOf(a);
+        box.min -= 1;
+        box.max += 1;
         int partner = -1;
         for (std::size_t j = 0; j < above.loops.size(); ++j) {
             const BoundaryLoop& b = *above.loops[j];
@@ -208,7 +211,10 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
         if (w > below.w) layers.push_back(w);
     layers.push_back(above.w);
     std::vector<SlicePlane> planes;
-    for (double w : layers) planes.emplace_back(volume, plan, w);
+    for (double w : layers) {
+        planes.emplace_back(volume, plan, w);
+        planes.back().eastCracks(); // reads the plane's image, with its bridges (slicer.h)
+    }
     // The pixels: every loop of both planes, with a margin that grows with the slab's thickness (a
     // tube leaning out between the planes), doubled while the inside touches the box's rim.
     PixelBox box{glm::ivec2(std::numeric_limits<int>::max()), glm::ivec2(std::numeric_limits<int>::min())};
@@ -388,8 +394,8 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
             return std::all_of(ps.begin(), ps.end(), [](const SlabPiece& p) { return p.kind == EventKind::Band; });
         };
         // Nor may a plane between voxel planes: the slab's labelling saw the voxel planes around
-        // it, including contacts across them (voxels touching along an edge) that a plane
-        // between them cannot show. Its pieces' Euler characteristics must add up to the slab's.
+        // it, and an interpolated plane can miss what joins them (a contact its image shows no
+        // bridge for). Its pieces' Euler characteristics must add up to the slab's.
         const auto euler = [](const std::vector<SlabPiece>& ps) {
             int sum = 0;
             for (const SlabPiece& p : ps) sum += p.euler();
