@@ -80,8 +80,9 @@ std::vector<GridSummary> listGrids(const std::string& path);
 /// @throw Error naming the file, the grid and what to do, for each of those problems.
 Volume readVolume(const std::string& path, const VolumeOptions& options = {});
 
-/// Writes the volume's grid to a .vdb file through a temporary file and a rename, so a failure
-/// never leaves half a file. @throw Error if the file cannot be written.
+/// Writes the volume's grid to a .vdb file, an OutputSet of one file: a failure never leaves half a
+/// file, and the file that was there stays as it was.
+/// @throw Error if the file cannot be written (OutputSet).
 void writeVolume(const Volume& volume, const std::string& path);
 
 const char* toString(VolumeClass volumeClass);
