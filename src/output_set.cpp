@@ -331,9 +331,10 @@ OutputSet::OutputSet(const std::vector<std::string>& targets, const std::string&
         t.lock = sibling(path, ".pipetile-lock");
         mImpl->targets.push_back(t);
     }
+    // Locked and registered in one step: a signal's abandonment sees every lock file it made.
+    std::lock_guard<std::mutex> guard(registryMutex());
     mImpl->lockAll("pid " + std::to_string(::getpid()) + (owner.empty() ? "" : ": " + owner));
     mImpl->removeStale();
-    std::lock_guard<std::mutex> guard(registryMutex());
     openSets().insert(mImpl.get());
 }
 
@@ -400,6 +401,7 @@ void abandonOutputs()
         if (set->state != State::Open) continue;
         set->state = State::Abandoned;
         for (const Target& t : set->targets) {
+            if (t.lockFd < 0) continue; // not ours: another run's lock file and temporary
             ::unlink(t.temporary.c_str());
             ::unlink(t.lock.c_str());
         }
