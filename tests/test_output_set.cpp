@@ -56,7 +56,7 @@ TEST(OutputSet, UncommittedSetLeavesTheFolderAsItWas)
         OutputSet set({dir.path("a.txt"), dir.path("b.txt")});
         set.write(dir.path("a.txt"), [](std::ostream& out) { out << "new a"; });
     }
-    EXPECT_EQ(test::folderBytes(dir.path("")), before);
+    EXPECT_TRUE(test::sameFiles(test::folderBytes(dir.path("")), before));
 }
 
 TEST(OutputSet, AWriterThatThrowsLeavesNoTemporaryAndNamesTheTarget)

@@ -172,6 +172,21 @@ std::map<std::string, std::string> folderBytes(const std::string& folder)
     return files;
 }
 
+::testing::AssertionResult sameFiles(const std::map<std::string, std::string>& actual,
+                                     const std::map<std::string, std::string>& expected)
+{
+    std::string differ;
+    for (const auto& [name, bytes] : expected) {
+        const auto it = actual.find(name);
+        if (it == actual.end()) differ += " " + name + " (missing)";
+        else if (it->second != bytes) differ += " " + name + " (changed)";
+    }
+    for (const auto& entry : actual)
+        if (!expected.count(entry.first)) differ += " " + entry.first + " (extra)";
+    if (differ.empty()) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "files differ:" << differ;
+}
+
 const Volume& cachedSample(const std::string& name)
 {
     static std::mutex mutex;

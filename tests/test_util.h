@@ -81,6 +81,11 @@ std::vector<glm::dvec3> plyDoubleVertices(const std::string& path);
 /// Every file of a folder (hidden ones included) with its bytes; "(a folder)" for folders.
 std::map<std::string, std::string> folderBytes(const std::string& folder);
 
+/// Whether two folders' files (folderBytes) are the same; on failure names the files that differ
+/// (not their bytes, which may be megabytes).
+::testing::AssertionResult sameFiles(const std::map<std::string, std::string>& actual,
+                                     const std::map<std::string, std::string>& expected);
+
 /// Generated samples, made once per test process.
 const Volume& cachedSample(const std::string& name);
 
