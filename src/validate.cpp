@@ -180,13 +180,22 @@ SurfaceSamples sampleSurface(const TriangleMesh& mesh, double spacing)
 TriangleMesh isosurface(const Volume& volume, double adaptivity, double* seconds)
 {
     const auto start = std::chrono::steady_clock::now();
+    // volumeToMesh stores float32 world positions, which at x = 10^6 round to 1/16. It meshes a
+    // shallow copy whose transform moves the centre of the active box to the origin, and the
+    // centre is added back in double: the reference is then as exact anywhere as near the origin.
+    const openvdb::FloatGrid& grid = gridOf(volume);
+    const glm::dvec3 centre = volume.indexToWorld(0.5 * (glm::dvec3(volume.bboxMin()) + glm::dvec3(volume.bboxMax())));
+    openvdb::math::Transform::Ptr centred = grid.transform().copy();
+    centred->postTranslate(openvdb::Vec3d(-centre.x, -centre.y, -centre.z));
+    const openvdb::FloatGrid::ConstPtr shifted =
+        openvdb::gridConstPtrCast<openvdb::FloatGrid>(grid.copyGridReplacingTransform(centred));
     std::vector<openvdb::Vec3s> points;
     std::vector<openvdb::Vec3I> triangles;
     std::vector<openvdb::Vec4I> quads;
-    openvdb::tools::volumeToMesh(gridOf(volume), points, triangles, quads, volume.iso(), adaptivity);
+    openvdb::tools::volumeToMesh(*shifted, points, triangles, quads, volume.iso(), adaptivity);
     TriangleMesh mesh;
     mesh.vertices.reserve(points.size());
-    for (const openvdb::Vec3s& p : points) mesh.vertices.push_back(glm::dvec3(p.x(), p.y(), p.z()));
+    for (const openvdb::Vec3s& p : points) mesh.vertices.push_back(centre + glm::dvec3(p.x(), p.y(), p.z()));
     mesh.triangles.reserve(triangles.size() + 2 * quads.size());
     for (const openvdb::Vec3I& t : triangles) mesh.triangles.push_back({t[0], t[1], t[2]});
     for (const openvdb::Vec4I& q : quads) {

@@ -3,7 +3,7 @@
 #include <pipetile/error.h>
 #include <pipetile/volume_grid.h>
 
-#include <pipetile/detail/atomic_file.h>
+#include <pipetile/output_set.h>
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
@@ -378,12 +378,10 @@ Volume volumeFromDense(const DenseVolume& dense, const VolumeOptions& options, c
 void writeVolume(const Volume& volume, const std::string& path)
 {
     initializeOpenVdb();
-    detail::writeAtomically(path, [&](const std::string& tmp) {
-        openvdb::GridCPtrVec grids{volume.impl().grid};
-        openvdb::io::File file(tmp);
-        file.write(grids);
-        file.close();
-    });
+    OutputSet outputs({path});
+    // Through a stream (io::File writes to a file of its own, unchecked): io::File reads it back.
+    outputs.write(path, [&](std::ostream& out) { openvdb::io::Stream(out).write(openvdb::GridCPtrVec{volume.impl().grid}); });
+    outputs.commit();
 }
 
 } // namespace pipetile

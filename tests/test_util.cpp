@@ -16,7 +16,16 @@
 #include <mutex>
 #include <random>
 #include <sstream>
+#include <fcntl.h>
+#include <sys/mount.h>
 #include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <iterator>
+#include <thread>
 
 namespace pipetile::test {
 
@@ -26,7 +35,9 @@ TempDir::TempDir()
     std::string name = info ? std::string(info->test_suite_name()) + "_" + info->name() : "pipetile";
     for (char& c : name)
         if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-    mPath = std::filesystem::temp_directory_path() / ("pipetile_test_" + name + "_" + std::to_string(::getpid()));
+    static std::atomic<int> instances{0};
+    mPath = std::filesystem::temp_directory_path() /
+            ("pipetile_test_" + name + "_" + std::to_string(::getpid()) + "_" + std::to_string(instances++));
     std::filesystem::remove_all(mPath);
     std::filesystem::create_directories(mPath);
 }
@@ -55,20 +66,128 @@ std::string slurp(const std::string& path)
 }
 } // namespace
 
-CliResult runCli(const std::string& args)
+CliResult runCli(const std::string& args) { return CliProcess(args).wait(); }
+
+CliProcess::CliProcess(const std::string& args, const std::string& prefix)
 {
-    static int counter = 0;
-    const std::string base = (std::filesystem::temp_directory_path() /
-                              ("pipetile_cli_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
-    const std::string command = std::string("'") + PIPETILE_CLI + "' " + args + " > '" + base + ".out' 2> '" + base + ".err'";
-    const int status = std::system(command.c_str());
+    static std::atomic<int> counter{0};
+    mBase = (std::filesystem::temp_directory_path() /
+             ("pipetile_cli_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
+    // exec: the shell becomes pipetile, so pid() is pipetile's own.
+    const std::string command = prefix + " exec '" + PIPETILE_CLI + "' " + args + " > '" + mBase + ".out' 2> '" + mBase + ".err'";
+    mPid = ::fork();
+    if (mPid == 0) {
+        // As from a terminal: signals at their defaults, whatever the test runner set.
+        for (const int s : {SIGINT, SIGTERM, SIGHUP, SIGXFSZ}) std::signal(s, SIG_DFL);
+        ::execl("/bin/bash", "bash", "-c", command.c_str(), static_cast<char*>(nullptr));
+        ::_exit(127);
+    }
+}
+
+CliProcess::~CliProcess()
+{
+    if (mPid <= 0) return;
+    if (!mReaped) ::kill(mPid, SIGKILL);
+    wait();
+}
+
+bool CliProcess::running()
+{
+    if (mPid <= 0 || mReaped) return false;
+    if (::waitpid(mPid, &mStatus, WNOHANG) == 0) return true;
+    mReaped = true;
+    return false;
+}
+
+CliResult CliProcess::wait()
+{
     CliResult result;
+    int status = mStatus;
+    if (!mReaped) ::waitpid(mPid, &status, 0);
+    mPid = -1;
     result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    result.out = slurp(base + ".out");
-    result.err = slurp(base + ".err");
-    std::filesystem::remove(base + ".out");
-    std::filesystem::remove(base + ".err");
+    mSignal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+    result.out = slurp(mBase + ".out");
+    result.err = slurp(mBase + ".err");
+    std::filesystem::remove(mBase + ".out");
+    std::filesystem::remove(mBase + ".err");
     return result;
+}
+
+bool waitForFile(const std::string& path, double seconds)
+{
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    std::error_code ec;
+    while (!std::filesystem::exists(path, ec)) {
+        if (std::chrono::steady_clock::now() > end) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return true;
+}
+
+SmallDisk::SmallDisk(std::size_t bytes)
+{
+    const std::string options = "size=" + std::to_string(bytes);
+    mMounted = ::mount("tmpfs", mDir.path("").c_str(), "tmpfs", 0, options.c_str()) == 0;
+}
+
+SmallDisk::~SmallDisk()
+{
+    if (mMounted) ::umount(mDir.path("").c_str());
+}
+
+void SmallDisk::fill()
+{
+    const int fd = ::open(path("filler").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const std::vector<char> block(4096, 0);
+    while (::write(fd, block.data(), block.size()) > 0) {}
+    ::close(fd);
+}
+
+void SmallDisk::unfill() { std::filesystem::remove(path("filler")); }
+
+std::vector<glm::dvec3> plyDoubleVertices(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    std::size_t count = 0;
+    bool doubles = false;
+    while (std::getline(in, line) && line != "end_header") {
+        if (line.rfind("element vertex ", 0) == 0) count = std::stoul(line.substr(15));
+        if (line == "property double x") doubles = true;
+    }
+    std::vector<glm::dvec3> vertices(doubles ? count : 0);
+    for (glm::dvec3& v : vertices) in.read(reinterpret_cast<char*>(&v.x), 3 * sizeof(double));
+    return vertices;
+}
+
+std::map<std::string, std::string> folderBytes(const std::string& folder)
+{
+    std::map<std::string, std::string> files;
+    for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+        if (entry.is_directory()) {
+            files[entry.path().filename().string()] = "(a folder)";
+            continue;
+        }
+        std::ifstream in(entry.path(), std::ios::binary);
+        files[entry.path().filename().string()] = std::string(std::istreambuf_iterator<char>(in), {});
+    }
+    return files;
+}
+
+::testing::AssertionResult sameFiles(const std::map<std::string, std::string>& actual,
+                                     const std::map<std::string, std::string>& expected)
+{
+    std::string differ;
+    for (const auto& [name, bytes] : expected) {
+        const auto it = actual.find(name);
+        if (it == actual.end()) differ += " " + name + " (missing)";
+        else if (it->second != bytes) differ += " " + name + " (changed)";
+    }
+    for (const auto& entry : actual)
+        if (!expected.count(entry.first)) differ += " " + entry.first + " (extra)";
+    if (differ.empty()) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "files differ:" << differ;
 }
 
 const Volume& cachedSample(const std::string& name)

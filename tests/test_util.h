@@ -5,9 +5,11 @@
 #include <pipetile/tiler.h>
 #include <pipetile/volume.h>
 
+#include <glm/vec3.hpp>
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -15,7 +17,7 @@
 
 namespace pipetile::test {
 
-/// A fresh, empty folder for one test, removed at the end of the test.
+/// A fresh, empty folder for one test, removed at the end of the test (each instance its own).
 class TempDir {
 public:
     TempDir();
@@ -34,6 +36,57 @@ struct CliResult {
 
 /// Runs the pipetile executable with `args` (shell-quoted by the caller where needed).
 CliResult runCli(const std::string& args);
+
+/// A pipetile process started in the background, for tests that signal it or run two at once.
+/// `prefix` goes before the executable in the shell command (for example "ulimit -f 16;").
+class CliProcess {
+public:
+    explicit CliProcess(const std::string& args, const std::string& prefix = "");
+    ~CliProcess(); // kills the process if the test did not wait for it
+    int pid() const { return mPid; }
+    bool running();
+    CliResult wait();                 // exitCode -1 when a signal ended it, see signal()
+    int signal() const { return mSignal; }
+
+private:
+    int mPid = -1;
+    int mStatus = 0;
+    bool mReaped = false;             // running() saw it end
+    int mSignal = 0;
+    std::string mBase;                // where stdout and stderr go
+};
+
+/// Polls (every millisecond, up to `seconds`) until `path` exists; false if it never does.
+bool waitForFile(const std::string& path, double seconds = 60.0);
+
+/// A tmpfs of `bytes` mounted on a folder of its own, unmounted at the end: a small disk that
+/// fills up. Mounting needs root; mounted() says whether it worked.
+class SmallDisk {
+public:
+    explicit SmallDisk(std::size_t bytes);
+    ~SmallDisk();
+    bool mounted() const { return mMounted; }
+    std::string path(const std::string& name) const { return mDir.path(name); }
+    std::vector<std::string> files() const { return mDir.files(); }
+    void fill();   // a file "filler" takes every free byte
+    void unfill(); // and is removed
+
+private:
+    TempDir mDir;
+    bool mMounted = false;
+};
+
+/// The vertices of a binary PLY with double x, y, z as pipetile writes it, read byte by byte
+/// (OpenMesh's reader rounds them to float).
+std::vector<glm::dvec3> plyDoubleVertices(const std::string& path);
+
+/// Every file of a folder (hidden ones included) with its bytes; "(a folder)" for folders.
+std::map<std::string, std::string> folderBytes(const std::string& folder);
+
+/// Whether two folders' files (folderBytes) are the same; on failure names the files that differ
+/// (not their bytes, which may be megabytes).
+::testing::AssertionResult sameFiles(const std::map<std::string, std::string>& actual,
+                                     const std::map<std::string, std::string>& expected);
 
 /// Generated samples, made once per test process.
 const Volume& cachedSample(const std::string& name);

@@ -3,7 +3,6 @@
 
 #include "bench.h"
 
-#include <pipetile/detail/atomic_file.h>
 #include <pipetile/pipetile.h>
 
 #include "phantoms.h"
@@ -14,8 +13,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <functional>
+#include <optional>
 
 namespace pipetile::tools {
 
@@ -106,6 +105,9 @@ json accuracyJson(const Validation& v)
 int runBench(const BenchArgs& args)
 {
     if (args.repeat < 1 || args.repeat > 1000) throw UsageError("--repeat must be between 1 and 1000");
+    // Locked before the (long) measurements, so a concurrent bench writing the same report fails now.
+    std::optional<OutputSet> outputs;
+    if (!args.report.empty()) outputs.emplace(std::vector<std::string>{args.report}, args.owner);
     const Volume volume = args.input.empty() ? samples::makeSample("phantom") : readVolume(args.input);
     const int repeat = args.repeat;
     MeshOptions options;
@@ -243,12 +245,9 @@ int runBench(const BenchArgs& args)
     report["pipetile"] = timingJson(pipeline);
     std::printf("\npipetile mesh, all %d levels: %.4f s (min %.4f, max %.4f)\n", options.levels, pipeline.median, pipeline.min,
                 pipeline.max);
-    if (!args.report.empty()) {
-        detail::writeAtomically(args.report, [&](const std::string& tmp) {
-            std::ofstream out(tmp);
-            out << report.dump(2) << '\n';
-            if (!out) throw Error("'" + args.report + "': cannot write the report");
-        });
+    if (outputs) {
+        outputs->write(args.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
+        outputs->commit();
     }
     return 0;
 }

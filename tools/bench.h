@@ -10,6 +10,7 @@ struct BenchArgs {
     std::string report;  // JSON output, or empty
     int repeat = 5;      // repetitions per figure; the median is reported, with min and max
     int threads = 0;
+    std::string owner;   // who writes the report (the command line), for a concurrent run's message
 };
 
 /// Runs the benchmark, prints Markdown tables, writes the JSON report. @throw Error as the library.

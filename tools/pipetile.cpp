@@ -1,7 +1,6 @@
 // pipetile — the command line: parse, call the library, print, map exceptions to exit codes.
 // Exit codes: 0 ok, 1 a failure (the message names the file or grid and what to do), 2 usage.
 
-#include <pipetile/detail/atomic_file.h>
 #include <pipetile/pipetile.h>
 
 #include "bench.h"
@@ -11,14 +10,20 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <pthread.h>
+
+#include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -28,14 +33,9 @@ using nlohmann::json;
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-void writeJson(const json& report, const std::string& path)
+void writeJson(const json& report, pipetile::OutputSet& outputs, const std::string& path)
 {
-    pipetile::detail::writeAtomically(path, [&](const std::string& tmp) {
-        std::ofstream out(tmp);
-        out << report.dump(2) << '\n';
-        out.close();
-        if (!out) throw pipetile::Error("'" + path + "': cannot write the report; check the folder");
-    });
+    outputs.write(path, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
 }
 
 // name_L<k>.ext next to the path the user gave.
@@ -129,6 +129,29 @@ void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<Na
     }
 }
 
+// The run's outputs as one transaction, locked before any work: a concurrent run writing any of
+// them fails now, and is told this one's command line.
+std::unique_ptr<pipetile::OutputSet> openOutputs(const std::vector<NamedPath>& outputs, const std::string& owner)
+{
+    std::vector<std::string> paths;
+    for (const NamedPath& o : outputs) paths.push_back(o.path);
+    auto set = std::make_unique<pipetile::OutputSet>(paths, owner);
+    const std::vector<std::string>& stale = set->staleRemoved();
+    if (!stale.empty())
+        std::fprintf(stderr, "pipetile: note: removed %zu temporary file%s left by a pipetile run that was killed (%s%s)\n",
+                     stale.size(), stale.size() == 1 ? "" : "s", stale.front().c_str(), stale.size() == 1 ? "" : ", ...");
+    return set;
+}
+
+// Binary STL holds float32 only: far from the origin that moves vertices. Say so beyond 1/100 voxel.
+void warnIfRounded(const std::string& output, double rounding, double voxel)
+{
+    if (rounding > 0.01 * voxel)
+        std::fprintf(stderr, "pipetile: warning: '%s': float32 coordinates (the format's only kind) move vertices by up "
+                             "to %.3g voxels this far from the origin; write .ply, .obj or .off to keep them exact\n",
+                     output.c_str(), rounding / voxel);
+}
+
 struct MeshArgs {
     std::string input, output, grid, report;
     std::optional<double> iso;
@@ -137,6 +160,7 @@ struct MeshArgs {
     int rays = 8, levels = 4, threads = 0;
     bool validate = false, everySlice = false;
     std::string tiler = "contour-tree";
+    std::string owner; // the command line, for a concurrent run's message
 };
 
 int runMesh(const MeshArgs& args)
@@ -166,6 +190,7 @@ int runMesh(const MeshArgs& args)
         outputs.push_back({levelPath(output, level), "mesh of level " + std::to_string(level)});
     if (!args.report.empty()) outputs.push_back({args.report, "report"});
     refuseClobbering({{args.input, "input volume"}}, outputs);
+    const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner);
 
     pipetile::VolumeOptions volumeOptions;
     volumeOptions.gridName = args.grid;
@@ -184,19 +209,11 @@ int runMesh(const MeshArgs& args)
     std::vector<pipetile::LevelMesh> levels{refinement.mesh()};
     while (refinement.canRefine()) levels.push_back(refinement.refine());
 
-    // Every level is written only once all of them exist; a failure removes what this run wrote.
-    std::vector<std::string> written;
-    try {
-        for (const pipetile::LevelMesh& level : levels) {
-            const std::string path = levelPath(output, level.level);
-            pipetile::writeMesh(level.mesh, path);
-            written.push_back(path);
-        }
-    } catch (...) {
-        std::error_code ec;
-        for (const std::string& path : written) std::filesystem::remove(path, ec);
-        throw;
-    }
+    // Each level to its temporary file; they replace the earlier files together, with the report.
+    double rounding = 0.0;
+    for (const pipetile::LevelMesh& level : levels)
+        rounding = std::max(rounding, pipetile::writeMesh(level.mesh, *files, levelPath(output, level.level)));
+    warnIfRounded(output, rounding, volume.smallestVoxel());
 
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
     json report = pipetile::tools::meshReport(volume, reconstruction);
@@ -208,9 +225,9 @@ int runMesh(const MeshArgs& args)
         const pipetile::LevelMesh& level = levels[k];
         // The level's own topology is a linear pass over its triangles: only when a report is asked for.
         report["levels"].push_back(pipetile::tools::levelReport(level, !args.report.empty()));
-        report["levels"][k]["file"] = written[k];
+        report["levels"][k]["file"] = levelPath(output, level.level);
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
-                    level.mesh.triangles.size(), level.seconds, written[k].c_str());
+                    level.mesh.triangles.size(), level.seconds, levelPath(output, level.level).c_str());
     }
     report["seconds"] = secondsSince(start);
     if (args.validate) {
@@ -225,12 +242,13 @@ int runMesh(const MeshArgs& args)
             printValidationRow("L" + std::to_string(levels[k].level), v);
         }
     }
-    if (!args.report.empty()) writeJson(report, args.report);
+    if (!args.report.empty()) writeJson(report, *files, args.report);
+    files->commit();
     return 0;
 }
 
 struct ValidateArgs {
-    std::string input, mesh, grid, report, colors;
+    std::string input, mesh, grid, report, colors, owner;
     std::optional<double> iso;
     int threads = 0;
 };
@@ -247,6 +265,7 @@ int runValidate(const ValidateArgs& args)
     if (!args.colors.empty()) outputs.push_back({args.colors, "coloured mesh"});
     if (!args.report.empty()) outputs.push_back({args.report, "report"});
     refuseClobbering({{args.input, "input volume"}, {args.mesh, "mesh to validate"}}, outputs);
+    const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner);
     pipetile::VolumeOptions volumeOptions;
     volumeOptions.gridName = args.grid;
     volumeOptions.iso = args.iso;
@@ -267,15 +286,16 @@ int runValidate(const ValidateArgs& args)
     if (!args.colors.empty()) {
         pipetile::MeshWriteOptions options;
         options.colors = pipetile::errorColors(v.vertexDistance, v.voxel);
-        pipetile::writeMesh(mesh, args.colors, options);
-        std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
+        pipetile::writeMesh(mesh, *files, args.colors, options);
     }
     if (!args.report.empty()) {
         json report = {{"input", args.input}, {"grid", volume.gridName()}, {"iso", volume.iso()}, {"mesh", args.mesh},
                        {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
                        {"validation", pipetile::tools::validationReport(v)}};
-        writeJson(report, args.report);
+        writeJson(report, *files, args.report);
     }
+    files->commit();
+    if (!args.colors.empty()) std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
     return 0;
 }
 
@@ -305,10 +325,42 @@ int runInfo(const std::string& input)
     return 0;
 }
 
+// SIGINT, SIGTERM and SIGHUP go to one thread that waits for them (blocked everywhere else, worker
+// threads included): it abandons the outputs, which removes this run's temporaries and waits for a
+// commit in progress, so the earlier outputs stay whole, then ends the process by the same signal.
+void handleSignalsInOneThread()
+{
+    static sigset_t signals;
+    sigemptyset(&signals);
+    for (const int s : {SIGINT, SIGTERM, SIGHUP}) sigaddset(&signals, s);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+    std::thread([] {
+        int s = 0;
+        if (sigwait(&signals, &s) != 0) return;
+        pipetile::abandonOutputs();
+        std::fprintf(stderr, "pipetile: stopped by %s; this run's files are removed, earlier outputs are as they were\n",
+                     strsignal(s));
+        std::signal(s, SIG_DFL);
+        sigset_t one;
+        sigemptyset(&one);
+        sigaddset(&one, s);
+        pthread_sigmask(SIG_UNBLOCK, &one, nullptr);
+        std::raise(s);
+    }).detach();
+}
+
+std::string commandLine(int argc, char** argv)
+{
+    std::string line = "pipetile";
+    for (int i = 1; i < argc; ++i) line += std::string(" ") + argv[i];
+    return line;
+}
+
 } // namespace
 
 int main(int argc, char** argv)
 {
+    handleSignalsInOneThread();
     CLI::App app{"pipetile: multiresolution triangle meshes of pipe-shaped objects from OpenVDB volumes"};
     app.require_subcommand(1);
 
@@ -359,6 +411,7 @@ int main(int argc, char** argv)
     CLI::App* info = app.add_subcommand("info", "List the grids of a .vdb file");
     info->add_option("INPUT", infoInput, "input .vdb file")->required();
 
+    meshArgs.owner = validateArgs.owner = benchArgs.owner = commandLine(argc, argv);
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -1,7 +1,10 @@
 // pipetile — mesh_io: the triangle mesh type, and reading and writing mesh files.
-// The only module that includes OpenMesh (to write); the extension of a path picks the format.
+// Reading (mesh_read.cpp) and writing are pipetile's own: every byte written goes through a checked
+// OutputSet stream, and positions keep double precision both ways (OpenMesh 9 reads and writes
+// float32 and ignores failed writes). The extension of a path picks the format.
 #pragma once
 
+#include <pipetile/output_set.h>
 #include <pipetile/tiler.h>
 
 #include <glm/common.hpp>
@@ -19,17 +22,29 @@ struct TriangleMesh {
 };
 
 struct MeshWriteOptions {
-    bool binary = true;               // PLY and STL in binary (smaller, exact floats); OBJ and OFF
-                                      // are text formats, written with 9 significant digits
+    bool binary = true;               // PLY and STL in binary, else as text (OBJ and OFF are text)
     std::vector<glm::dvec3> colors;   // optional per-vertex RGB in [0, 1] (PLY, OFF, OBJ)
 };
 
 /// True for the extensions pipetile writes: .ply .obj .stl .off (any case).
 bool isMeshExtension(const std::string& path);
 
-/// Writes a mesh through a temporary file and a rename: a failure never leaves half a file.
-/// @throw Error for an unknown extension, or a folder that is missing or not writable.
-void writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWriteOptions& options = {});
+/// Writes a mesh as `path`, one of the targets of `outputs` (it is in place once they commit);
+/// the extension picks the format. Positions keep their double precision wherever the format can
+/// hold it: binary PLY stores doubles, and text formats the shortest decimals that read back as
+/// the same doubles. Binary STL can only hold float32.
+/// @return the largest distance, in world units along one axis, between a coordinate in the file
+/// and the mesh's: 0 except for binary STL, where it is float32's rounding (large far from the
+/// origin: half a unit at 10^7).
+/// @throw Error for an unknown extension, a vertex that is not finite, a triangle naming a vertex
+/// the mesh does not have, or a write that fails (OutputSet::write).
+double writeMesh(const TriangleMesh& mesh, OutputSet& outputs, const std::string& path,
+                 const MeshWriteOptions& options = {});
+
+/// Writes one mesh file on its own: an OutputSet of that one file, committed. A failure never
+/// leaves half a file, and the file that was there stays as it was.
+/// @return and @throw as above, and the OutputSet's own errors (a missing folder, a run holding the file).
+double writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWriteOptions& options = {});
 
 /// Reads a triangle or polygon mesh (.ply .obj .stl .off) as written: every vertex in file order,
 /// in double precision, every face in file order, polygons split into triangle fans. Nothing is

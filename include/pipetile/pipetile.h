@@ -7,6 +7,7 @@
 #include <pipetile/graph.h>
 #include <pipetile/mesh_io.h>
 #include <pipetile/multires.h>
+#include <pipetile/output_set.h>
 #include <pipetile/slicer.h>
 #include <pipetile/tiler.h>
 #include <pipetile/validate.h>

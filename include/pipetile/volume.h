@@ -104,8 +104,9 @@ struct DenseVolume {
 ///        affine map; Error for what readVolume refuses (NaN values, an isovalue crossing nothing).
 Volume volumeFromDense(const DenseVolume& dense, const VolumeOptions& options, const std::string& source);
 
-/// Writes the volume's grid to a .vdb file through a temporary file and a rename, so a failure
-/// never leaves half a file. @throw Error if the file cannot be written.
+/// Writes the volume's grid to a .vdb file, an OutputSet of one file: a failure never leaves half a
+/// file, and the file that was there stays as it was.
+/// @throw Error if the file cannot be written (OutputSet).
 void writeVolume(const Volume& volume, const std::string& path);
 
 const char* toString(VolumeClass volumeClass);
