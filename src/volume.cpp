@@ -45,15 +45,32 @@ std::string gridClassName(openvdb::GridClass c)
     }
 }
 
+const char* fileKind(std::filesystem::file_type type)
+{
+    switch (type) {
+    case std::filesystem::file_type::fifo: return "pipe (FIFO, or a shell's <(...))";
+    case std::filesystem::file_type::character: return "character device";
+    case std::filesystem::file_type::block: return "block device";
+    case std::filesystem::file_type::socket: return "socket";
+    default: return "special file";
+    }
+}
+
 // Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
 std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
 {
     initializeOpenVdb();
     std::error_code ec;
-    if (!std::filesystem::exists(path, ec))
+    const std::filesystem::file_status status = std::filesystem::status(path, ec);
+    if (!std::filesystem::exists(status))
         throw Error(inQuotes(path) + ": no such file; check the path");
-    if (std::filesystem::is_directory(path, ec))
+    if (std::filesystem::is_directory(status))
         throw Error(inQuotes(path) + ": is a directory, not a .vdb file");
+    // OpenVDB seeks in the file and pipetile opens it twice (grid list, then voxels): a pipe would
+    // be half consumed by the first reader, and the second would wait forever for a writer.
+    if (!std::filesystem::is_regular_file(status))
+        throw Error(inQuotes(path) + ": is a " + fileKind(status.type()) +
+                    ", not a regular file; .vdb files are read by seeking: save the data to a file first");
     auto file = std::make_unique<openvdb::io::File>(path);
     try {
         file->open(/*delayLoad=*/false);

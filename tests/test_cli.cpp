@@ -13,8 +13,11 @@
 #include <iterator>
 #include <set>
 
+#include <sys/stat.h>
+
 using namespace pipetile;
 using pipetile::test::runCli;
+using pipetile::test::runShell;
 using pipetile::test::TempDir;
 
 namespace {
@@ -314,6 +317,27 @@ TEST(Cli, MeshesNoisyFogOfSeveralSizesAndSeeds)
             EXPECT_EQ(t.euler, j["events"]["built_euler"].get<long long>());
         }
     }
+}
+
+TEST(Cli, RefusesAPipeAsInputWithoutWaiting)
+{
+    // OpenVDB seeks, and the volume is opened twice: a pipe once gave a 13 KB message or waited
+    // forever for a writer. A FIFO nobody writes to, and bash's <(cat file) (a pipe with a
+    // writer): one line naming the path, at once (timeout 20 s turns a hang into exit 124).
+    TempDir dir;
+    ASSERT_EQ(::mkfifo(dir.path("in.vdb").c_str(), 0600), 0);
+    expectRefusal(dir, dir.path("in.vdb"), "", 1, {"in.vdb", "is a pipe", "not a regular file", "save the data to a file"});
+    const std::string carotid = test::realData("ts_common_carotid_artery_left_ls.vdb");
+    for (const std::string& command : {"mesh <(cat '" + carotid + "') -o '" + dir.path("m.ply") + "'", "info <(cat '" + carotid + "')"}) {
+        SCOPED_TRACE(command);
+        const std::string script = std::string("timeout 20 '") + PIPETILE_CLI + "' " + command;
+        const test::CliResult r = runShell("bash -c \"" + script + "\"");
+        EXPECT_EQ(r.exitCode, 1) << r.err;
+        EXPECT_NE(r.err.find("/dev/fd/"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("is a pipe"), std::string::npos) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    }
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"in.vdb"}));
 }
 
 TEST(Cli, UnwritableOutputFails)
