@@ -5,6 +5,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/SignedFloodFill.h>
 
 #include <algorithm>
 #include <array>
@@ -212,6 +213,7 @@ void writeFarSpheresVdb(const std::string& path, int zA, int zB)
     for (int z : {zA, zB})
         for (auto it = sphere->cbeginValueOn(); it; ++it)
             accessor.setValue(it.getCoord().offsetBy(0, 0, z), *it);
+    openvdb::tools::signedFloodFill(grid->tree()); // the spheres' insides: negative, not background
     writeGridsVdb(path, {grid});
 }
 
