@@ -340,6 +340,24 @@ TEST(Cli, RefusesAPipeAsInputWithoutWaiting)
     EXPECT_EQ(dir.files(), (std::vector<std::string>{"in.vdb"}));
 }
 
+TEST(Cli, RunningOutOfMemorySaysWhatToLower)
+{
+    // A 1 GB address space (RLIMIT_AS, set in the child by the shell's ulimit) against the
+    // phantom's 251 contours at 4096 * 2^L rays for L = 0..3, held together: 15.4 million
+    // crossings at the library's estimate of 100 bytes each, 1.5 GB. Once "internal error:
+    // std::bad_alloc"; now what ran out and what to lower, exit 1, no file written.
+    TempDir dir;
+    const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh -o '" +
+                                       dir.path("m.ply") + "' --rays 4096 --levels 4");
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("pipetile: error: out of memory meshing the phantom with --levels 4, --rays 4096, --spacing 2: "
+                         "lower --levels or --rays, raise --spacing"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+    EXPECT_TRUE(dir.files().empty());
+}
+
 TEST(Cli, UnwritableOutputFails)
 {
     // /proc takes no new files, even from root: the write fails and leaves nothing behind.

@@ -16,6 +16,9 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <new>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -371,6 +374,30 @@ int runInfo(const std::string& input)
     return 0;
 }
 
+std::string formatNumber(double v)
+{
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+// What to tell a user whose run ran out of memory (std::bad_alloc, or a container asked for more
+// than it can hold): which run, and what makes it smaller.
+std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate)
+{
+    if (mesh) {
+        const std::string input = mesh->input.empty() ? std::string("the phantom") : "'" + mesh->input + "'";
+        return "out of memory meshing " + input + " with --levels " + std::to_string(mesh->levels) + ", --rays " +
+               std::to_string(mesh->rays) + ", --spacing " + formatNumber(mesh->spacing) +
+               ": lower --levels or --rays, raise --spacing, or clip the grid to the object";
+    }
+    if (validate)
+        return "out of memory validating '" + validate->mesh + "' against '" + validate->input +
+               "': the isosurface of the whole grid and the mesh must fit; clip the grid to the object or "
+               "validate a coarser level";
+    return "out of memory: use a smaller grid (clip it to the object) or fewer levels";
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -436,6 +463,11 @@ int main(int argc, char** argv)
         return 2;
     }
 
+    const auto outOfMemoryExit = [&] {
+        std::fprintf(stderr, "pipetile: error: %s\n",
+                     outOfMemory(mesh->parsed() ? &meshArgs : nullptr, validate->parsed() ? &validateArgs : nullptr).c_str());
+        return 1;
+    };
     try {
         if (mesh->parsed()) return runMesh(meshArgs);
         if (validate->parsed()) return runValidate(validateArgs);
@@ -451,6 +483,10 @@ int main(int argc, char** argv)
     } catch (const pipetile::Error& e) {
         std::fprintf(stderr, "pipetile: error: %s\n", e.what());
         return 1;
+    } catch (const std::bad_alloc&) {
+        return outOfMemoryExit();
+    } catch (const std::length_error&) {
+        return outOfMemoryExit();
     } catch (const std::exception& e) {
         std::fprintf(stderr, "pipetile: internal error: %s (please report it with the input)\n", e.what());
         return 1;
