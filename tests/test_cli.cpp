@@ -358,6 +358,35 @@ TEST(Cli, RunningOutOfMemorySaysWhatToLower)
     EXPECT_TRUE(dir.files().empty());
 }
 
+TEST(Cli, OneHotVoxelDoesNotHideTheTube)
+{
+    // A 0..1 fog tube with one voxel of 100: the default iso was 50 and the mesh a speck around
+    // that voxel, exit 0. Now iso 0.5 (halfway to 1, the densest value that leaves at least 27
+    // voxels inside), the voxel left out is said and counted, and the tube is one closed tube.
+    // Asked for iso 50 anyway, the run warns that only that voxel lies inside.
+    TempDir dir;
+    test::writeTubeFogVdb(dir.path("tube.vdb"), 100.0);
+    const test::CliResult r = runCli("mesh '" + dir.path("tube.vdb") + "' -o '" + dir.path("m.ply") + "' --report '" +
+                                     dir.path("m.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json j = readJson(dir.path("m.json"));
+    EXPECT_EQ(j["iso"].get<double>(), 0.5);
+    EXPECT_EQ(j["hot_voxels"].get<long long>(), 1);
+    EXPECT_EQ(j["inside_voxels"].get<long long>(), 5376); // 112 pixels within radius 6, 48 sections
+    EXPECT_EQ(j["statistics"]["tubes"].get<int>(), 1);
+    for (const auto& level : j["levels"]) {
+        const Topology t = checkTopology(readMesh(level["file"].get<std::string>()));
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented() && t.outward());
+        EXPECT_EQ(t.euler, 2);
+    }
+    EXPECT_NE(r.err.find("iso 0.5, halfway from the background 0 to 1; 1 voxel is denser (up to 100)"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("iso 0.5"), std::string::npos) << r.out;
+    const test::CliResult forced = runCli("mesh '" + dir.path("tube.vdb") + "' -o '" + dir.path("m.ply") + "' --levels 1 --iso 50");
+    EXPECT_EQ(forced.exitCode, 0) << forced.err;
+    EXPECT_NE(forced.err.find("warning: grid 'density': only 1 active voxel lies inside the surface at iso 50"), std::string::npos)
+        << forced.err;
+}
+
 TEST(Cli, UnwritableOutputFails)
 {
     // /proc takes no new files, even from root: the write fails and leaves nothing behind.

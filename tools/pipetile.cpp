@@ -157,6 +157,27 @@ void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<Na
     }
 }
 
+// Says on stderr when the isovalue deserves a second look: the default fog isovalue left hot
+// voxels out, or so few voxels lie inside that the mesh can only be specks.
+void noteIsovalue(const pipetile::Volume& volume)
+{
+    const std::string grid = "grid '" + volume.gridName() + "'";
+    if (volume.hotVoxels() > 0) {
+        const bool one = volume.hotVoxels() == 1;
+        std::fprintf(stderr, "pipetile: note: %s: iso %g, halfway from the background %g to %g; %lld voxel%s denser (up "
+                             "to %g), too few to be the object (fewer than %lld), so the default ignores %s; pass --iso "
+                             "to choose\n",
+                     grid.c_str(), volume.iso(), volume.background(), 2.0 * volume.iso() - volume.background(),
+                     volume.hotVoxels(), one ? " is" : "s are", volume.maxValue(), pipetile::kFewestObjectVoxels,
+                     one ? "it" : "them");
+    }
+    if (volume.insideVoxels() < pipetile::kFewestObjectVoxels)
+        std::fprintf(stderr, "pipetile: warning: %s: only %lld active voxel%s inside the surface at iso %g: the mesh "
+                             "can only be specks (values range from %g to %g; choose --iso)\n",
+                     grid.c_str(), volume.insideVoxels(), volume.insideVoxels() == 1 ? " lies" : "s lie", volume.iso(),
+                     volume.minValue(), volume.maxValue());
+}
+
 struct MeshArgs {
     std::string input, output, grid, report;
     std::optional<double> iso;
@@ -201,6 +222,7 @@ int runMesh(const MeshArgs& args)
     const pipetile::Volume volume = args.input.empty() ? pipetile::samples::makeSample("phantom")
                                                        : pipetile::readVolume(args.input, volumeOptions);
     if (args.input.empty() && args.iso) throw pipetile::UsageError("--iso needs an INPUT file");
+    noteIsovalue(volume);
 
     // Level 0, then each level refined from the one before (only the new rays are cast).
     const pipetile::Reconstruction reconstruction(volume, options);
@@ -232,6 +254,8 @@ int runMesh(const MeshArgs& args)
         {"grid", volume.gridName()},
         {"class", pipetile::toString(volume.volumeClass())},
         {"iso", volume.iso()},
+        {"inside_voxels", volume.insideVoxels()},
+        {"hot_voxels", volume.hotVoxels()},
         {"axis", axisName(reconstruction.plan().axis)},
         {"tiler", args.tiler},
         {"every_slice", args.everySlice},
@@ -325,6 +349,7 @@ int runValidate(const ValidateArgs& args)
     volumeOptions.gridName = args.grid;
     volumeOptions.iso = args.iso;
     const pipetile::Volume volume = pipetile::readVolume(args.input, volumeOptions);
+    noteIsovalue(volume);
     const pipetile::TriangleMesh mesh = pipetile::readMesh(args.mesh);
     const pipetile::Validator validator(volume, {1.0, args.threads});
     const pipetile::Validation v = validator.validate(mesh);
