@@ -3,6 +3,7 @@
 
 #include <pipetile/contour_tree.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace pipetile {
@@ -57,10 +58,14 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
         (!c.depth.empty() && static_cast<int>(c.depth.size()) != m))
         throw std::invalid_argument("ContourTree: the contour does not wind once around its centre (#F - #B != n)");
 
-    // Rules [1] / [1']: one F edge per sector, in walk order. The preferred candidate of sector 0
-    // fixes F_0; each later sector takes its preferred candidate if it comes after F_{x-1} on the
-    // walk, else the first one that does. Every up-crossing of a sector is followed by one of the
-    // next sector before the walk closes, so this always yields a main path.
+    // Rules [1] / [1']: one F edge per sector, in walk order, each crossing its own sector level.
+    // Count the sectors the walk crosses from F_0 (F +1, B -1): it ends one turn on, at n. A
+    // section that spirals (an arm curling more than a turn around the centre, as noise makes)
+    // crosses sector x also at levels x - n, x + n, ...; an F edge a turn away would leave an
+    // excursion that does not come back to its ray. So F_x must cross level x. The preferred
+    // candidate of sector 0 fixes F_0; each later sector takes its preferred candidate of level x
+    // if it comes after F_{x-1} on the walk, else the first one that does. One always does: after
+    // its last crossing of level x - 1 the walk stays above x - 1 and still has to cross x.
     // The F edges of sector x, in walk order: edges[first[x]] .. edges[first[x + 1] - 1]
     // (forwardEdges() without a vector per sector: this runs for every contour of every level).
     std::vector<int> first(c.rays + 1, 0), forward(static_cast<std::size_t>(m));
@@ -74,53 +79,40 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     }
     auto candidate = [&](int x, int k) { return forward[first[x] + k]; };
     auto candidateCount = [&](int x) { return first[x + 1] - first[x]; };
-    auto preferred = [&](int x) {
-        int best = 0;
-        for (int k = 1; k < candidateCount(x); ++k) {
-            const bool better = rank.empty() ? c.depth.empty() ? false : c.depth[candidate(x, k)] > c.depth[candidate(x, best)]
+    auto preferred = [&](int x, auto&& eligible) {
+        int best = -1;
+        for (int k = 0; k < candidateCount(x); ++k) {
+            if (!eligible(candidate(x, k))) continue;
+            const bool better = best < 0 ? true
+                              : rank.empty() ? c.depth.empty() ? false : c.depth[candidate(x, k)] > c.depth[candidate(x, best)]
                                              : rank[x][k] < rank[x][best];
             if (better) best = k;
         }
-        return candidate(x, best);
+        return best < 0 ? -1 : candidate(x, best);
     };
     for (int x = 0; x < c.rays; ++x) {
         if (candidateCount(x) == 0) throw std::logic_error("ContourTree: a sector without an F edge (internal invariant broken)");
         mAmbiguous += candidateCount(x) > 1 ? 1 : 0;
     }
-    mStart = preferred(0);
+    mStart = preferred(0, [](int) { return true; });
     auto rotated = [&](int edge) { return (edge - mStart + m) % m; }; // position on the walk from F_0
+    std::vector<int> level(static_cast<std::size_t>(m)); // sector level each edge starts at, from F_0
+    for (int i = 0, lifted = 0; i < m; ++i) {
+        const int edge = (mStart + i) % m;
+        level[edge] = lifted;
+        lifted += c.edges[edge] == EdgeType::Forward ? 1 : c.edges[edge] == EdgeType::Backward ? -1 : 0;
+    }
     std::vector<int> mainPath(c.rays + 1);
     mainPath[0] = 0;
-    bool found = true;
-    for (int x = 1; x < c.rays && found; ++x) {
-        int chosen = rotated(preferred(x));
+    for (int x = 1; x < c.rays; ++x) {
+        int chosen = rotated(preferred(x, [&](int edge) { return level[edge] == x; }));
         if (chosen <= mainPath[x - 1]) {
             chosen = m;
             for (int k = 0; k < candidateCount(x); ++k)
-                if (rotated(candidate(x, k)) > mainPath[x - 1] && rotated(candidate(x, k)) < chosen)
-                    chosen = rotated(candidate(x, k));
+                if (level[candidate(x, k)] == x && rotated(candidate(x, k)) > mainPath[x - 1])
+                    chosen = std::min(chosen, rotated(candidate(x, k)));
         }
-        found = chosen < m;
         mainPath[x] = chosen;
-    }
-    if (!found) {
-        // A preferred F edge came later on the walk than every F edge of a following sector. Count
-        // the sectors the walk has crossed from F_0 (F +1, B -1): it ends one turn on, at n, so
-        // it crosses each level x in 1..n-1 forward one last time, and those last crossings come
-        // in order (after crossing x for the last time, the walk stays beyond x). They are F
-        // edges of sector x, a path.
-        int lifted = 0;
-        for (int i = 0; i < m; ++i) {
-            const int edge = (mStart + i) % m;
-            if (c.edges[edge] == EdgeType::Forward) {
-                if (lifted >= 1 && lifted < c.rays) mainPath[lifted] = i;
-                ++lifted;
-            } else if (c.edges[edge] == EdgeType::Backward) {
-                --lifted;
-            }
-        }
-        for (int x = 1; x < c.rays; ++x)
-            if (mainPath[x] <= mainPath[x - 1]) throw std::logic_error("ContourTree: no main path (internal invariant broken)");
     }
     mainPath[c.rays] = m;
 

@@ -44,35 +44,50 @@ SlicePlan planSlices(const Volume& volume, const SliceOptions& options)
             glm::dvec3 unit(0.0);
             unit[a] = 1.0;
             const glm::dvec3 step = volume.indexToWorld(unit) - origin;
-            const double length = (hi[a] - lo[a] + 1) * std::sqrt(step.x * step.x + step.y * step.y + step.z * step.z);
+            const double voxels = static_cast<double>(hi[a]) - lo[a] + 1.0; // in 64 bits: 3e9 voxels apart fit
+            const double length = voxels * std::sqrt(step.x * step.x + step.y * step.y + step.z * step.z);
             if (length > best + 1e-9) { best = length; plan.axis = a; }
         }
     } else {
         plan.axis = static_cast<int>(options.axis);
     }
     const int a = plan.axis, ua = (a + 1) % 3, va = (a + 2) % 3;
-    const int count = static_cast<int>(std::floor((hi[a] - lo[a]) / options.spacingVoxels)) + 1;
-    plan.positions.reserve(count);
-    for (int i = 0; i < count; ++i) plan.positions.push_back(lo[a] + i * options.spacingVoxels);
     plan.pixelMin = glm::ivec2(lo[ua] - 1, lo[va] - 1);
     plan.pixelMax = glm::ivec2(hi[ua] + 1, hi[va] + 1);
 
     // Bucket the leaf nodes by their slab along w, so a plane finds its boundary seeds without
     // visiting the whole tree.
     const openvdb::FloatTree& tree = gridOf(volume).tree();
-    plan.leafOriginMin = floorDiv(lo[a], kLeafDim) * kLeafDim;
-    const int slabs = floorDiv(hi[a], kLeafDim) - floorDiv(lo[a], kLeafDim) + 1;
-    plan.leafFootprints.assign(std::max(slabs, 0), {});
+    const int slabMin = floorDiv(lo[a], kLeafDim) * kLeafDim;
     for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
         const openvdb::Coord o = leaf->origin();
-        const int slab = (o[a] - plan.leafOriginMin) / kLeafDim;
-        if (slab < 0 || slab >= slabs) continue;
-        plan.leafFootprints[slab].push_back(glm::ivec2(o[ua], o[va]));
+        if (o[a] < slabMin || o[a] > hi[a]) continue;
+        plan.leafFootprints[o[a]].push_back(glm::ivec2(o[ua], o[va]));
     }
     // Tree iteration order is deterministic, but sort anyway so seeds never depend on it.
-    for (auto& footprints : plan.leafFootprints)
+    for (auto& [slab, footprints] : plan.leafFootprints)
         std::sort(footprints.begin(), footprints.end(),
                   [](const glm::ivec2& p, const glm::ivec2& q) { return p.y != q.y ? p.y < q.y : p.x < q.x; });
+
+    // Planes every spacing from the low end, kept where leaves lie: a plane elsewhere reads
+    // nothing but empty space (boundaries lie in leaf nodes, volume.h), and so does the slab
+    // between two such planes. One plane of empty space is kept either side of each run of
+    // slabs, so that every tube still ends in a slab between a plane of its own and an empty one.
+    const double spacing = options.spacingVoxels, pad = spacing + 1.0;
+    std::vector<std::pair<double, double>> occupied; // runs of slabs, padded, increasing in w
+    for (const auto& [slab, footprints] : plan.leafFootprints) {
+        const double from = slab - pad, to = slab + (kLeafDim - 1) + pad;
+        if (!occupied.empty() && from <= occupied.back().second) occupied.back().second = to;
+        else occupied.emplace_back(from, to);
+    }
+    const long long last = static_cast<long long>(std::floor((static_cast<double>(hi[a]) - lo[a]) / spacing));
+    long long next = 0;
+    for (const auto& [from, to] : occupied) {
+        const long long first = std::max(next, static_cast<long long>(std::ceil((from - lo[a]) / spacing)));
+        const long long end = std::min(last, static_cast<long long>(std::floor((to - lo[a]) / spacing)));
+        for (long long i = first; i <= end; ++i) plan.positions.push_back(lo[a] + static_cast<double>(i) * spacing);
+        next = std::max(next, end + 1);
+    }
     return plan;
 }
 
@@ -117,9 +132,9 @@ struct SlicePlane::Impl {
         // The plane reads voxel planes w0 and, between planes, w0 + 1: their leaves hold the boundary.
         for (int wi : {w0, w0 + 1}) {
             if (wi == w0 + 1 && frac == 0.0) break;
-            const int slab = floorDiv(wi - p.leafOriginMin, kLeafDim);
-            if (slab < 0 || slab >= static_cast<int>(p.leafFootprints.size())) continue;
-            leafOrigins.insert(leafOrigins.end(), p.leafFootprints[slab].begin(), p.leafFootprints[slab].end());
+            const auto slab = p.leafFootprints.find(floorDiv(wi, kLeafDim) * kLeafDim);
+            if (slab == p.leafFootprints.end()) continue;
+            leafOrigins.insert(leafOrigins.end(), slab->second.begin(), slab->second.end());
         }
         std::sort(leafOrigins.begin(), leafOrigins.end(),
                   [](const glm::ivec2& a, const glm::ivec2& b) { return a.y != b.y ? a.y < b.y : a.x < b.x; });
@@ -129,20 +144,22 @@ struct SlicePlane::Impl {
         for (const glm::ivec2& o : leafOrigins) { lo = glm::min(lo, o); hi = glm::max(hi, o); }
         lo -= kLeafDim;
         hi += 2 * kLeafDim;
-        const std::size_t pixels = static_cast<std::size_t>(hi.x - lo.x) * static_cast<std::size_t>(hi.y - lo.y);
+        // In 64 bits: leaves 2^31 voxels apart are possible.
+        const double pixels = (static_cast<double>(hi.x) - lo.x) * (static_cast<double>(hi.y) - lo.y);
         // Leaves scattered far apart (two small objects) would make a huge, empty image: read
         // those through the accessor.
-        if (pixels > std::max<std::size_t>(std::size_t(1) << 20, 16 * kLeafDim * kLeafDim * leafOrigins.size())) return;
+        if (pixels > std::max(double(1 << 20), 16.0 * kLeafDim * kLeafDim * static_cast<double>(leafOrigins.size()))) return;
         imageMin = lo;
         imageWidth = hi.x - lo.x;
         imageHeight = hi.y - lo.y;
-        image.reset(new double[pixels]);
+        const std::size_t count = static_cast<std::size_t>(imageWidth) * static_cast<std::size_t>(imageHeight);
+        image.reset(new double[count]);
         std::vector<double> lower; // between voxel planes: plane w0's own values, for the bridges
         // Offset of voxel (x, y, z) in a leaf's buffer: (x & 7) * 64 + (y & 7) * 8 + (z & 7).
         constexpr int kStride[3] = {kLeafDim * kLeafDim, kLeafDim, 1};
         for (int wi : {w0, w0 + 1}) {
             if (wi == w0 + 1 && frac == 0.0) break;
-            if (wi == w0 + 1) lower.assign(image.get(), image.get() + pixels);
+            if (wi == w0 + 1) lower.assign(image.get(), image.get() + count);
             const int wOffset = (wi & (kLeafDim - 1)) * kStride[p.axis];
             for (int bv = lo.y; bv < hi.y; bv += kLeafDim)
                 for (int bu = lo.x; bu < hi.x; bu += kLeafDim) {

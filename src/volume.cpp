@@ -14,6 +14,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <sstream>
 
@@ -46,15 +47,32 @@ std::string gridClassName(openvdb::GridClass c)
     }
 }
 
+const char* fileKind(std::filesystem::file_type type)
+{
+    switch (type) {
+    case std::filesystem::file_type::fifo: return "pipe (FIFO, or a shell's <(...))";
+    case std::filesystem::file_type::character: return "character device";
+    case std::filesystem::file_type::block: return "block device";
+    case std::filesystem::file_type::socket: return "socket";
+    default: return "special file";
+    }
+}
+
 // Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
 std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
 {
     initializeOpenVdb();
     std::error_code ec;
-    if (!std::filesystem::exists(path, ec))
+    const std::filesystem::file_status status = std::filesystem::status(path, ec);
+    if (!std::filesystem::exists(status))
         throw Error(inQuotes(path) + ": no such file; check the path");
-    if (std::filesystem::is_directory(path, ec))
+    if (std::filesystem::is_directory(status))
         throw Error(inQuotes(path) + ": is a directory, not a .vdb file");
+    // OpenVDB seeks in the file and pipetile opens it twice (grid list, then voxels): a pipe would
+    // be half consumed by the first reader, and the second would wait forever for a writer.
+    if (!std::filesystem::is_regular_file(status))
+        throw Error(inQuotes(path) + ": is a " + fileKind(status.type()) +
+                    ", not a regular file; .vdb files are read by seeking: save the data to a file first");
     auto file = std::make_unique<openvdb::io::File>(path);
     try {
         file->open(/*delayLoad=*/false);
@@ -161,6 +179,56 @@ openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m, const std::string
     return openvdb::math::Transform::createLinearTransform(rows);
 }
 
+// The default fog isovalue: halfway between the background (empty space) and the densest value,
+// 0.5 for a 0..1 density and -500 for a CT-like -1000..0 volume, unless so few voxels are that
+// dense that fewer than kFewestObjectVoxels would lie inside: then the densest value that leaves
+// that many (one voxel at 100 in a 0..1 tube would put the surface at 50, around that voxel
+// alone). The answer is one of the kFewestObjectVoxels densest values, since each of them lies
+// beyond halfway to itself. `hot` gets the number of voxels denser than the value taken.
+double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
+{
+    const double background = grid.background();
+    std::vector<float> densest; // a min-heap of the densest values
+    for (auto it = grid.cbeginValueOn(); it; ++it) {
+        if (static_cast<long long>(densest.size()) < kFewestObjectVoxels) {
+            densest.push_back(*it);
+            std::push_heap(densest.begin(), densest.end(), std::greater<float>());
+        } else if (*it > densest.front()) {
+            std::pop_heap(densest.begin(), densest.end(), std::greater<float>());
+            densest.back() = *it;
+            std::push_heap(densest.begin(), densest.end(), std::greater<float>());
+        }
+    }
+    std::sort(densest.begin(), densest.end(), std::greater<float>());
+    // Voxels beyond the isovalue halfway to each candidate, counted in one pass.
+    std::vector<double> isos;
+    for (float peak : densest) isos.push_back(0.5 * (background + peak)); // decreasing
+    std::vector<long long> beyond(isos.size(), 0);
+    for (auto it = grid.cbeginValueOn(); it; ++it) {
+        // isos[k] < value for k >= first: the first k with isos[k] < value, isos decreasing.
+        const auto first = std::partition_point(isos.begin(), isos.end(), [&](double iso) { return iso >= *it; });
+        if (first != isos.end()) ++beyond[first - isos.begin()];
+    }
+    long long count = 0; // voxels beyond isos[k]: those beyond isos[0..k]
+    for (std::size_t k = 0; k < isos.size() && densest[k] > background; ++k) {
+        count += beyond[k];
+        if (count >= kFewestObjectVoxels) {
+            hot = std::count_if(densest.begin(), densest.end(), [&](float v) { return v > densest[k]; });
+            return isos[k];
+        }
+    }
+    hot = 0; // too few voxels to be an object at any of them: the densest value (callers warn)
+    return isos.front();
+}
+
+long long countInside(const openvdb::FloatGrid& grid, VolumeClass volumeClass, double iso)
+{
+    long long inside = 0;
+    for (auto it = grid.cbeginValueOn(); it; ++it)
+        inside += (volumeClass == VolumeClass::LevelSet ? *it < iso : *it > iso) ? 1 : 0;
+    return inside;
+}
+
 } // namespace
 
 const char* toString(VolumeClass volumeClass)
@@ -172,8 +240,11 @@ const std::string& Volume::source() const { return mImpl->source; }
 const std::string& Volume::gridName() const { return mImpl->gridName; }
 VolumeClass Volume::volumeClass() const { return mImpl->volumeClass; }
 double Volume::iso() const { return mImpl->iso; }
+double Volume::background() const { return mImpl->grid->background(); }
 double Volume::minValue() const { return mImpl->minValue; }
 double Volume::maxValue() const { return mImpl->maxValue; }
+long long Volume::insideVoxels() const { return mImpl->insideVoxels; }
+long long Volume::hotVoxels() const { return mImpl->hotVoxels; }
 
 glm::dvec3 Volume::voxelSize() const
 {
@@ -323,12 +394,13 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     if (options.iso) {
         if (!std::isfinite(*options.iso)) throw UsageError(where + ": the isovalue must be a finite number");
         impl->iso = *options.iso;
+    } else if (impl->volumeClass == VolumeClass::LevelSet) {
+        impl->iso = 0.0;
     } else {
-        // Fog: halfway between the background (empty space) and the densest value, which is 0.5 for
-        // a 0..1 density and -500 for a CT-like -1000..0 volume.
-        impl->iso = impl->volumeClass == VolumeClass::LevelSet ? 0.0 : 0.5 * (background + hi);
+        impl->iso = defaultFogIso(*grid, impl->hotVoxels);
     }
     const double iso = impl->iso;
+    impl->insideVoxels = countInside(*grid, impl->volumeClass, iso);
     if (!(lo < iso && iso < hi))
         throw Error(where + ": isovalue " + formatValue(iso) + " crosses nothing (values range from " +
                     formatValue(lo) + " to " + formatValue(hi) + "); choose --iso inside that range");

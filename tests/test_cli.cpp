@@ -9,6 +9,9 @@
 
 #include <glm/geometric.hpp>
 #include <nlohmann/json.hpp>
+#include <openvdb/io/File.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/SignedFloodFill.h>
 
 #include <csignal>
 #include <filesystem>
@@ -19,8 +22,11 @@
 #include <set>
 #include <thread>
 
+#include <sys/stat.h>
+
 using namespace pipetile;
 using pipetile::test::runCli;
+using pipetile::test::runShell;
 using pipetile::test::TempDir;
 
 namespace {
@@ -442,6 +448,128 @@ TEST(Cli, MeshRunsPrintNoOpenMeshChatter)
     const test::CliResult r = runCli("mesh '" + dir.path("s.vdb") + "' -o '" + dir.path("m.obj") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(r.err, "");
+}
+
+// ---- Inputs people have that are not clean pipes: noise, hot voxels, far-apart objects ----
+
+TEST(Cli, MeshesNoisyFogOfSeveralSizesAndSeeds)
+{
+    // Uniform noise: at iso 0.5 every section is a froth of blobs, spirals and holes. Seed 6 at
+    // 16^3 once stopped with "internal error: ContourTree: unbalanced excursion" (a section
+    // spiralling more than a turn around its centre). Every level must be closed, manifold and
+    // oriented, with the Euler characteristic the events build (caps - saddles).
+    for (const auto& [size, seed] : std::vector<std::pair<int, unsigned>>{{16, 6}, {16, 1}, {16, 2}, {24, 1}}) {
+        SCOPED_TRACE(std::to_string(size) + "^3, seed " + std::to_string(seed));
+        TempDir dir;
+        test::writeNoisyFogVdb(dir.path("fog.vdb"), size, seed);
+        const test::CliResult r = runCli("mesh '" + dir.path("fog.vdb") + "' -o '" + dir.path("m.ply") + "' --levels 2 --report '" +
+                                         dir.path("m.json") + "'");
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        const nlohmann::json j = readJson(dir.path("m.json"));
+        EXPECT_GT(j["statistics"]["tubes"].get<int>(), 10);
+        for (const auto& level : j["levels"]) {
+            const Topology t = checkTopology(readMesh(level["file"].get<std::string>()));
+            EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+            EXPECT_EQ(t.euler, j["events"]["built_euler"].get<long long>());
+        }
+    }
+}
+
+TEST(Cli, RefusesAPipeAsInputWithoutWaiting)
+{
+    // OpenVDB seeks, and the volume is opened twice: a pipe once gave a 13 KB message or waited
+    // forever for a writer. A FIFO nobody writes to, and bash's <(cat file) (a pipe with a
+    // writer): one line naming the path, at once (timeout 20 s turns a hang into exit 124).
+    TempDir dir;
+    ASSERT_EQ(::mkfifo(dir.path("in.vdb").c_str(), 0600), 0);
+    expectRefusal(dir, dir.path("in.vdb"), "", 1, {"in.vdb", "is a pipe", "not a regular file", "save the data to a file"});
+    const std::string carotid = test::realData("ts_common_carotid_artery_left_ls.vdb");
+    for (const std::string& command : {"mesh <(cat '" + carotid + "') -o '" + dir.path("m.ply") + "'", "info <(cat '" + carotid + "')"}) {
+        SCOPED_TRACE(command);
+        const std::string script = std::string("timeout 20 '") + PIPETILE_CLI + "' " + command;
+        const test::CliResult r = runShell("bash -c \"" + script + "\"");
+        EXPECT_EQ(r.exitCode, 1) << r.err;
+        EXPECT_NE(r.err.find("/dev/fd/"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("is a pipe"), std::string::npos) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    }
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"in.vdb"}));
+}
+
+TEST(Cli, RunningOutOfMemorySaysWhatToLower)
+{
+    // A 1 GB address space (RLIMIT_AS, set in the child by the shell's ulimit) against the
+    // phantom's 251 contours at 4096 * 2^L rays for L = 0..3, held together: 15.4 million
+    // crossings at the library's estimate of 100 bytes each, 1.5 GB. Once "internal error:
+    // std::bad_alloc"; now what ran out and what to lower, exit 1, no file written.
+    TempDir dir;
+    const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh -o '" +
+                                       dir.path("m.ply") + "' --rays 4096 --levels 4");
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("pipetile: error: out of memory meshing the phantom with --levels 4, --rays 4096, --spacing 2: "
+                         "lower --levels or --rays, raise --spacing"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+    EXPECT_TRUE(dir.files().empty());
+}
+
+TEST(Cli, OneHotVoxelDoesNotHideTheTube)
+{
+    // A 0..1 fog tube with one voxel of 100: the default iso was 50 and the mesh a speck around
+    // that voxel, exit 0. Now iso 0.5 (halfway to 1, the densest value that leaves at least 27
+    // voxels inside), the voxel left out is said and counted, and the tube is one closed tube.
+    // Asked for iso 50 anyway, the run warns that only that voxel lies inside.
+    TempDir dir;
+    test::writeTubeFogVdb(dir.path("tube.vdb"), 100.0);
+    const test::CliResult r = runCli("mesh '" + dir.path("tube.vdb") + "' -o '" + dir.path("m.ply") + "' --report '" +
+                                     dir.path("m.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json j = readJson(dir.path("m.json"));
+    EXPECT_EQ(j["iso"].get<double>(), 0.5);
+    EXPECT_EQ(j["hot_voxels"].get<long long>(), 1);
+    EXPECT_EQ(j["inside_voxels"].get<long long>(), 5376); // 112 pixels within radius 6, 48 sections
+    EXPECT_EQ(j["statistics"]["tubes"].get<int>(), 1);
+    for (const auto& level : j["levels"]) {
+        const Topology t = checkTopology(readMesh(level["file"].get<std::string>()));
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented() && t.outward());
+        EXPECT_EQ(t.euler, 2);
+    }
+    EXPECT_NE(r.err.find("iso 0.5, halfway from the background 0 to 1; 1 voxel is denser (up to 100)"), std::string::npos) << r.err;
+    EXPECT_NE(r.out.find("iso 0.5"), std::string::npos) << r.out;
+    const test::CliResult forced = runCli("mesh '" + dir.path("tube.vdb") + "' -o '" + dir.path("m.ply") + "' --levels 1 --iso 50");
+    EXPECT_EQ(forced.exitCode, 0) << forced.err;
+    EXPECT_NE(forced.err.find("warning: grid 'density': only 1 active voxel lies inside the surface at iso 50"), std::string::npos)
+        << forced.err;
+}
+
+TEST(Cli, DISABLED_KnownGapFarApartSpheresSideBySide)
+{
+    // Known gap (registered as an expected failure in CMakeLists.txt): the same two spheres 1e8
+    // voxels apart along x, sliced along z, lie in the same planes. Their starts and ends share
+    // slabs, and labelling such a slab (graph.cpp, labelSlab) takes one pixel box around all the
+    // loops of both planes: 1e8 x 15 pixels a layer, 10.9 s and 1.4 GB (along the axis between
+    // them: 0.11 s, 43 MB). Under a 1 GB address space it must still mesh the two spheres.
+    TempDir dir;
+    openvdb::initialize();
+    const openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+    auto grid = openvdb::FloatGrid::create(sphere->background());
+    grid->setName("spheres");
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    for (int x : {0, 100000000})
+        for (auto it = sphere->cbeginValueOn(); it; ++it) grid->tree().setValue(it.getCoord().offsetBy(x, 0, 0), *it);
+    openvdb::tools::signedFloodFill(grid->tree());
+    openvdb::io::File file(dir.path("side.vdb"));
+    file.write({grid});
+    file.close();
+    const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh '" + dir.path("side.vdb") +
+                                       "' --axis z --levels 2 -o '" + dir.path("m.ply") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    for (int level : {0, 1}) {
+        const Topology t = checkTopology(readMesh(dir.path("m_L" + std::to_string(level) + ".ply")));
+        EXPECT_TRUE(t.closed() && t.manifold());
+        EXPECT_EQ(t.components, 2);
+    }
 }
 
 TEST(Cli, UnwritableOutputFails)

@@ -180,3 +180,82 @@ TEST(ContourTree, RandomNonStarSectionsTileAsClosedStrips)
     EXPECT_GT(ambiguous, 20);
     std::printf("[ stats    ] %d sections, %d not star-shaped, %d with ambiguous sectors\n", tested, nonStar, ambiguous);
 }
+
+namespace {
+
+// A random cyclic edge string that winds once around n rays but may spiral on the way: a random
+// walk over (ray, crossing kind) whose sector level (F +1, B -1) wanders up to `reach` turns either
+// side before the walk is steered home to level n. Noisy sections (fog with noise, CT) give such
+// strings: an arm that curls more than a full turn around the centre and comes back.
+ContourString spiralString(std::mt19937& rng, int n, int steps, int reach)
+{
+    std::uniform_int_distribution<int> coin(0, 1);
+    std::vector<EdgeType> edges;
+    int level = 0;
+    bool inOut = true; // the walk starts at an IN-OUT crossing of ray 0
+    auto step = [&](bool forward) {
+        if (forward) {
+            if (!inOut) edges.push_back(coin(rng) ? EdgeType::UpOut : EdgeType::DownOut);
+            edges.push_back(EdgeType::Forward);
+            inOut = true;
+            ++level;
+        } else {
+            if (inOut) edges.push_back(coin(rng) ? EdgeType::UpIn : EdgeType::DownIn);
+            edges.push_back(EdgeType::Backward);
+            inOut = false;
+            --level;
+        }
+    };
+    edges.push_back(EdgeType::Forward); // F_0 is a forward crossing of level 0
+    ++level;
+    for (int k = 0; k < steps; ++k) {
+        const bool forward = level <= -reach * n ? true : level >= (reach + 1) * n ? false : coin(rng) == 1;
+        step(forward);
+    }
+    while (level != n) step(level < n);
+    if (!inOut) edges.push_back(coin(rng) ? EdgeType::UpOut : EdgeType::DownOut);
+    ContourString c = stringOfEdges(edges);
+    std::uniform_int_distribution<int> depth(0, 3);
+    for (int& d : c.depth) d = depth(rng); // rule [1'] without a neighbour: the outermost F edge
+    return c;
+}
+
+} // namespace
+
+TEST(ContourTree, SpiralSectionsHaveABalancedMainPath)
+{
+    // Rule [1] needs one F edge per sector whose excursions in between come back to their ray:
+    // F_x must cross sector level x on the walk from F_0 (F +1, B -1), not x plus or minus a turn.
+    // Strings that spiral (levels beyond n or below 0) used to pick F edges a turn away, which
+    // left an unbalanced excursion or no main path at all (issue 14, noisy fog volumes). Every
+    // such string must build, with F_x in sector x, in walk order, a level x from F_0, and tile
+    // against any other string of the same n as a closed strip of m + n triangles.
+    std::mt19937 rng(14);
+    int spirals = 0;
+    for (int trial = 0; trial < 3000; ++trial) {
+        const int n = 3 + trial % 6;
+        const ContourString a = spiralString(rng, n, 4 + trial % 40, 1 + trial % 2);
+        const ContourString b = spiralString(rng, n, 4 + (trial * 7) % 40, 1);
+        ASSERT_EQ(a.rays, n);
+        const ContourTree ta(a), tb(b);
+        const int m = static_cast<int>(a.edges.size());
+        int level = 0, x = 0;
+        bool spiral = false;
+        for (int i = 0; i < m; ++i) {
+            const int edge = (ta.startCrossing() + i) % m;
+            if (x < n && edge == ta.mainEdge(x)) {
+                ASSERT_EQ(level, x) << "trial " << trial << ": F_" << x << " lies a turn away";
+                ASSERT_EQ(a.ray[edge], x);
+                ++x;
+            }
+            level += a.edges[edge] == EdgeType::Forward ? 1 : a.edges[edge] == EdgeType::Backward ? -1 : 0;
+            spiral = spiral || level < 0 || level > n;
+        }
+        ASSERT_EQ(x, n) << "trial " << trial << ": main path out of walk order";
+        spirals += spiral ? 1 : 0;
+        ASSERT_TRUE(test::isClosedStrip(tileBand(ta, tb), static_cast<std::uint32_t>(m),
+                                        static_cast<std::uint32_t>(b.edges.size())))
+            << "trial " << trial;
+    }
+    EXPECT_GT(spirals, 1000); // the generator must really make spirals
+}

@@ -93,3 +93,33 @@ TEST(Slicer, AnisotropicVoxelsGiveWorldSpaceVertices)
     // Enclosed volume near 4/3 pi 10^3 = 4189: a polyhedron inscribed in slices loses some.
     EXPECT_NEAR(topo.signedVolume, 4188.8, 0.06 * 4188.8);
 }
+
+TEST(Slicer, FarApartSpheresCostTheirOwnSlicesNotTheGap)
+{
+    // Two spheres of radius 5 (narrow band 3: active voxels within 8 of each centre, in the leaf
+    // slabs [c - 8, c + 7]), 1e8 and 2e9 voxels apart and at +-1.5e9 (extents past 2^31). Planes
+    // go every 2 voxels from the low end of the box, only where leaves lie, padded by a spacing
+    // and a voxel (3) either side: odd w in [c - 11, c + 10], i.e. 9 planes about the sphere at
+    // 0 (w = -7 .. 9, the box starting at -7), 10 about one at 1e8 (c - 11 .. c + 7, the box ending
+    // at c + 7), and for the pair at +-1.5e9 9 + 10 as well. The gap once cost 5e7 planes (70 s,
+    // 5.7 GB), 2e9 ran out of memory, +-1.5e9 overflowed.
+    for (const auto& [zA, zB] : std::vector<std::pair<int, int>>{{0, 100000000}, {0, 2000000000}, {-1500000000, 1500000000}}) {
+        SCOPED_TRACE(std::to_string(zA) + " and " + std::to_string(zB));
+        test::TempDir dir;
+        test::writeFarSpheresVdb(dir.path("far.vdb"), zA, zB);
+        const Volume v = readVolume(dir.path("far.vdb"));
+        const SlicePlan plan = planSlices(v, {Axis::Auto, 2.0});
+        EXPECT_EQ(plan.axis, 2);
+        ASSERT_EQ(plan.positions.size(), 19u);
+        for (double w : plan.positions) EXPECT_LE(std::min(std::abs(w - zA), std::abs(w - zB)), 11.0) << w;
+        // Each sphere is one closed tube of its own.
+        MeshOptions options;
+        options.levels = 2;
+        const Reconstruction r(v, options);
+        EXPECT_EQ(r.stats().tubes, 2);
+        const Topology t = checkTopology(r.buildLevel(1).mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+        EXPECT_EQ(t.euler, 4);
+        EXPECT_EQ(t.components, 2);
+    }
+}

@@ -4,9 +4,12 @@
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/SignedFloodFill.h>
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
@@ -111,6 +114,22 @@ CliResult CliProcess::wait()
     result.err = slurp(mBase + ".err");
     std::filesystem::remove(mBase + ".out");
     std::filesystem::remove(mBase + ".err");
+    return result;
+}
+
+CliResult runShell(const std::string& commandLine)
+{
+    static std::atomic<int> counter{0};
+    const std::string base = (std::filesystem::temp_directory_path() /
+                              ("pipetile_sh_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
+    const std::string command = commandLine + " > '" + base + ".out' 2> '" + base + ".err'";
+    const int status = std::system(command.c_str());
+    CliResult result;
+    result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    result.out = slurp(base + ".out");
+    result.err = slurp(base + ".err");
+    std::filesystem::remove(base + ".out");
+    std::filesystem::remove(base + ".err");
     return result;
 }
 
@@ -410,6 +429,55 @@ void writeMeshFile(const std::string& path, MeshFile kind, const std::vector<glm
     case MeshFile::StlBinary: out = stlFile(false, vertices, faces); break;
     }
     writeTextFile(path, out);
+}
+
+void writeNoisyFogVdb(const std::string& path, int size, unsigned seed)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("density");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    std::mt19937 rng(seed);
+    auto accessor = grid->getAccessor();
+    for (int i = 0; i < size; ++i)
+        for (int j = 0; j < size; ++j)
+            for (int k = 0; k < size; ++k)
+                accessor.setValue(openvdb::Coord(i, j, k), static_cast<float>(rng() * (1.0 / 4294967296.0)));
+    writeGridsVdb(path, {grid});
+}
+
+void writeTubeFogVdb(const std::string& path, double hotValue)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("density");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto accessor = grid->getAccessor();
+    for (int i = 0; i < 24; ++i)
+        for (int j = 0; j < 24; ++j)
+            for (int k = 0; k < 48; ++k) {
+                const double r = std::hypot(i - 11.5, j - 11.5);
+                accessor.setValue(openvdb::Coord(i, j, k), static_cast<float>(std::clamp(6.5 - r, 0.0, 1.0)));
+            }
+    if (hotValue > 0.0) accessor.setValue(openvdb::Coord(11, 11, 20), static_cast<float>(hotValue));
+    writeGridsVdb(path, {grid});
+}
+
+void writeFarSpheresVdb(const std::string& path, int zA, int zB)
+{
+    openvdb::initialize();
+    // One sphere at the origin, copied voxel by voxel to both places: building it at z = 1e9
+    // directly would lose its shape to float precision.
+    const openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+    auto grid = openvdb::FloatGrid::create(sphere->background());
+    grid->setName("spheres");
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    auto accessor = grid->getAccessor();
+    for (int z : {zA, zB})
+        for (auto it = sphere->cbeginValueOn(); it; ++it)
+            accessor.setValue(it.getCoord().offsetBy(0, 0, z), *it);
+    openvdb::tools::signedFloodFill(grid->tree()); // the spheres' insides: negative, not background
+    writeGridsVdb(path, {grid});
 }
 
 } // namespace pipetile::test

@@ -36,6 +36,8 @@ struct CliResult {
 
 /// Runs the pipetile executable with `args` (shell-quoted by the caller where needed).
 CliResult runCli(const std::string& args);
+/// Runs a whole /bin/sh command line (a pipeline, `bash -c ...`), capturing its output likewise.
+CliResult runShell(const std::string& commandLine);
 
 /// A pipetile process started in the background, for tests that signal it or run two at once.
 /// `prefix` goes before the executable in the shell command (for example "ulimit -f 16;").
@@ -125,5 +127,15 @@ std::string nameOf(MeshFile kind);      // "PlyAscii", ... for SCOPED_TRACE
 void writeMeshFile(const std::string& path, MeshFile kind, const std::vector<glm::dvec3>& vertices,
                    const std::vector<std::vector<long long>>& faces);
 void writeTextFile(const std::string& path, const std::string& text);
+/// Volumes users have that are not clean pipes, written with OpenVDB itself.
+/// A fog "density" of size^3 voxels of uniform noise in [0, 1) (mt19937 with `seed`): CT-like
+/// noise at its worst, whose sections at iso 0.5 are blobs, spirals and holes.
+void writeNoisyFogVdb(const std::string& path, int size, unsigned seed);
+/// A fog "density" tube along z, 0 outside and 1 inside radius 6 (a 24 x 24 x 48 block, linear over
+/// one voxel at the rim); `hotValue` > 0 puts one voxel of that value on the axis at z = 20.
+void writeTubeFogVdb(const std::string& path, double hotValue = 0.0);
+/// A level set "spheres": two spheres of radius 5 (voxel 1, half-width 3) centred at (0, 0, zA)
+/// and (0, 0, zB) in index space, nothing in between.
+void writeFarSpheresVdb(const std::string& path, int zA, int zB);
 
 } // namespace pipetile::test

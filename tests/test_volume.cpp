@@ -5,7 +5,9 @@
 
 #include <openvdb/io/File.h>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <fstream>
 #include <limits>
 
@@ -161,4 +163,42 @@ TEST(Volume, BackgroundInsideTheSurfaceIsRefused)
     // A level set whose background is negative encloses all of space: no bounded object.
     auto grid = smallLevelSet(-3.0f);
     EXPECT_NE(messageOf([&] { volumeFromGrid(grid, {"", 0.0}, "mem"); }).find("unbounded"), std::string::npos);
+}
+
+namespace {
+
+// The fog tube of test::writeTubeFogVdb, in memory, with `hot` voxels of 100 on its axis.
+openvdb::FloatGrid::Ptr tubeFogWithHotVoxels(int hot)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("density");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto acc = grid->getAccessor();
+    for (int i = 0; i < 24; ++i)
+        for (int j = 0; j < 24; ++j)
+            for (int k = 0; k < 48; ++k)
+                acc.setValue(openvdb::Coord(i, j, k), static_cast<float>(std::clamp(6.5 - std::hypot(i - 11.5, j - 11.5), 0.0, 1.0)));
+    for (int k = 0; k < hot; ++k) acc.setValue(openvdb::Coord(11, 11, k), 100.0f);
+    return grid;
+}
+
+} // namespace
+
+TEST(Volume, HotVoxelsTooFewToBeAnObjectDoNotSetTheDefaultFogIso)
+{
+    // A 0..1 tube (value above 0.5 within radius 6: 112 pixels a section, 5376 voxels in its 48
+    // sections) with voxels of 100 on its axis. Halfway to 100 would put the surface around those
+    // voxels alone; while fewer than 27 (a 3^3 block) of them would lie inside, the default is
+    // halfway to 1, the next densest value, and they are counted as hot.
+    for (const auto& [hot, iso, hotVoxels, inside] :
+         std::vector<std::tuple<int, double, long long, long long>>{{0, 0.5, 0, 5376}, {1, 0.5, 1, 5376}, {26, 0.5, 26, 5376},
+                                                                    {27, 50.0, 0, 27}}) {
+        SCOPED_TRACE(std::to_string(hot) + " hot voxels");
+        const Volume v = volumeFromGrid(tubeFogWithHotVoxels(hot), {}, "tube");
+        EXPECT_DOUBLE_EQ(v.iso(), iso);
+        EXPECT_EQ(v.hotVoxels(), hotVoxels);
+        EXPECT_EQ(v.insideVoxels(), inside); // the hot voxels lie on the axis, inside the tube
+        EXPECT_EQ(v.maxValue(), hot > 0 ? 100.0 : 1.0);
+    }
 }

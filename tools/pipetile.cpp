@@ -21,6 +21,9 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <new>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <system_error>
 #include <thread>
@@ -152,6 +155,27 @@ void warnIfRounded(const std::string& output, double rounding, double voxel)
                      output.c_str(), rounding / voxel);
 }
 
+// Says on stderr when the isovalue deserves a second look: the default fog isovalue left hot
+// voxels out, or so few voxels lie inside that the mesh can only be specks.
+void noteIsovalue(const pipetile::Volume& volume)
+{
+    const std::string grid = "grid '" + volume.gridName() + "'";
+    if (volume.hotVoxels() > 0) {
+        const bool one = volume.hotVoxels() == 1;
+        std::fprintf(stderr, "pipetile: note: %s: iso %g, halfway from the background %g to %g; %lld voxel%s denser (up "
+                             "to %g), too few to be the object (fewer than %lld), so the default ignores %s; pass --iso "
+                             "to choose\n",
+                     grid.c_str(), volume.iso(), volume.background(), 2.0 * volume.iso() - volume.background(),
+                     volume.hotVoxels(), one ? " is" : "s are", volume.maxValue(), pipetile::kFewestObjectVoxels,
+                     one ? "it" : "them");
+    }
+    if (volume.insideVoxels() < pipetile::kFewestObjectVoxels)
+        std::fprintf(stderr, "pipetile: warning: %s: only %lld active voxel%s inside the surface at iso %g: the mesh "
+                             "can only be specks (values range from %g to %g; choose --iso)\n",
+                     grid.c_str(), volume.insideVoxels(), volume.insideVoxels() == 1 ? " lies" : "s lie", volume.iso(),
+                     volume.minValue(), volume.maxValue());
+}
+
 struct MeshArgs {
     std::string input, output, grid, report;
     std::optional<double> iso;
@@ -198,6 +222,7 @@ int runMesh(const MeshArgs& args)
     const pipetile::Volume volume = args.input.empty() ? pipetile::samples::makeSample("phantom")
                                                        : pipetile::readVolume(args.input, volumeOptions);
     if (args.input.empty() && args.iso) throw pipetile::UsageError("--iso needs an INPUT file");
+    noteIsovalue(volume);
 
     // Level 0, then each level refined from the one before (only the new rays are cast).
     const pipetile::Reconstruction reconstruction(volume, options);
@@ -270,6 +295,7 @@ int runValidate(const ValidateArgs& args)
     volumeOptions.gridName = args.grid;
     volumeOptions.iso = args.iso;
     const pipetile::Volume volume = pipetile::readVolume(args.input, volumeOptions);
+    noteIsovalue(volume);
     const pipetile::TriangleMesh mesh = pipetile::readMesh(args.mesh);
     if (mesh.triangles.empty())
         throw pipetile::Error("'" + args.mesh + "': the mesh has " + std::to_string(mesh.vertices.size()) +
@@ -356,6 +382,30 @@ std::string commandLine(int argc, char** argv)
     return line;
 }
 
+std::string formatNumber(double v)
+{
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+// What to tell a user whose run ran out of memory (std::bad_alloc, or a container asked for more
+// than it can hold): which run, and what makes it smaller.
+std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate)
+{
+    if (mesh) {
+        const std::string input = mesh->input.empty() ? std::string("the phantom") : "'" + mesh->input + "'";
+        return "out of memory meshing " + input + " with --levels " + std::to_string(mesh->levels) + ", --rays " +
+               std::to_string(mesh->rays) + ", --spacing " + formatNumber(mesh->spacing) +
+               ": lower --levels or --rays, raise --spacing, or clip the grid to the object";
+    }
+    if (validate)
+        return "out of memory validating '" + validate->mesh + "' against '" + validate->input +
+               "': the isosurface of the whole grid and the mesh must fit; clip the grid to the object or "
+               "validate a coarser level";
+    return "out of memory: use a smaller grid (clip it to the object) or fewer levels";
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -423,6 +473,11 @@ int main(int argc, char** argv)
         return 2;
     }
 
+    const auto outOfMemoryExit = [&] {
+        std::fprintf(stderr, "pipetile: error: %s\n",
+                     outOfMemory(mesh->parsed() ? &meshArgs : nullptr, validate->parsed() ? &validateArgs : nullptr).c_str());
+        return 1;
+    };
     try {
         if (mesh->parsed()) return runMesh(meshArgs);
         if (validate->parsed()) return runValidate(validateArgs);
@@ -438,6 +493,10 @@ int main(int argc, char** argv)
     } catch (const pipetile::Error& e) {
         std::fprintf(stderr, "pipetile: error: %s\n", e.what());
         return 1;
+    } catch (const std::bad_alloc&) {
+        return outOfMemoryExit();
+    } catch (const std::length_error&) {
+        return outOfMemoryExit();
     } catch (const std::exception& e) {
         std::fprintf(stderr, "pipetile: internal error: %s (please report it with the input)\n", e.what());
         return 1;

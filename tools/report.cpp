@@ -52,6 +52,8 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
         {"grid", volume.gridName()},
         {"class", toString(volume.volumeClass())},
         {"iso", volume.iso()},
+        {"inside_voxels", volume.insideVoxels()},
+        {"hot_voxels", volume.hotVoxels()},
         {"axis", axisName(reconstruction.plan().axis)},
         {"tiler", tilerName(options.tiler)},
         {"every_slice", options.everySlice},

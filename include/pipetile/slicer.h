@@ -12,6 +12,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -30,16 +31,16 @@ struct SlicePlan {
     std::vector<double> positions;   // index coordinate w of each slice, increasing
     glm::ivec2 pixelMin{0}, pixelMax{0}; // in-plane pixel box (inclusive): the active bounding box
                                      // padded by one pixel; everything outside reads as outside
-    int leafOriginMin = 0;           // w origin of the first leaf-node slab
-    std::vector<std::vector<glm::ivec2>> leafFootprints; // per 8-voxel slab along w: (u, v) origins
-                                                         // of the leaf nodes in it
+    std::map<int, std::vector<glm::ivec2>> leafFootprints; // per 8-voxel slab along w that holds
+                                     // leaf nodes, by its w origin: the (u, v) origins of its leaves
 };
 
 /// Index-space point of in-plane coordinates (u, v) on the plane w of `axis`.
 glm::dvec3 planeToIndex(int axis, const glm::dvec2& uv, double w);
 
 /// Chooses the axis and slice positions: from the low to the high end of the active bounding box
-/// along the axis, every `spacingVoxels`.
+/// along the axis, every `spacingVoxels`, where leaf nodes lie (with one plane of empty space
+/// either side): far-apart objects in one sparse grid cost their own slices, not the gap's.
 /// @throw UsageError if the spacing is not a finite number in [0.1, 1000].
 SlicePlan planSlices(const Volume& volume, const SliceOptions& options);
 

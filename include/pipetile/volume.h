@@ -20,10 +20,16 @@ enum class VolumeClass {
     Fog,      // density: inside where value > iso
 };
 
+/// Fewer active voxels than this (a 3 x 3 x 3 block) inside a surface make specks, not an object:
+/// the default fog isovalue keeps at least this many inside, and callers warn below it.
+constexpr long long kFewestObjectVoxels = 27;
+
 struct VolumeOptions {
     std::string gridName;      // empty: the first scalar float grid of the file
     std::optional<double> iso; // unset: 0 for level sets; for fog volumes, halfway between the
-                               // background and the largest active value (documented in README)
+                               // background and the largest active value that leaves at least
+                               // kFewestObjectVoxels inside (so one hot voxel cannot set it;
+                               // documented in README)
 };
 
 /// Name, type and class of one grid in a file, as `pipetile info` lists them.
@@ -54,8 +60,15 @@ public:
     double smallestVoxel() const;        // smallest voxel edge, the unit of "voxels" in reports
     glm::ivec3 bboxMin() const;          // active voxel bounding box, index space, inclusive
     glm::ivec3 bboxMax() const;
+    double background() const;           // the value of empty space (inactive voxels)
     double minValue() const;             // over active values and the background
     double maxValue() const;
+    /// Active voxels inside the surface at iso(): below kFewestObjectVoxels the mesh is specks.
+    long long insideVoxels() const;
+    /// Active voxels denser than the value the default fog isovalue was taken from: so few that,
+    /// taken as the object, fewer than kFewestObjectVoxels would lie inside (one hot voxel in a
+    /// 0..1 density). 0 when the isovalue was given, for level sets, and when no voxel was left out.
+    long long hotVoxels() const;
     /// World position of a point given in index space (the grid's own transform).
     glm::dvec3 indexToWorld(const glm::dvec3& index) const;
     glm::dvec3 worldToIndex(const glm::dvec3& world) const;

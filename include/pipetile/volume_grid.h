@@ -15,6 +15,8 @@ struct Volume::Impl {
     VolumeClass volumeClass = VolumeClass::LevelSet;
     double iso = 0.0;
     double minValue = 0.0, maxValue = 0.0;
+    long long insideVoxels = 0;  // active voxels inside the surface at iso
+    long long hotVoxels = 0;     // active voxels the default fog isovalue left out (Volume::hotVoxels)
     openvdb::CoordBBox bbox; // active voxels
 };
 
