@@ -248,8 +248,8 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
     const std::int32_t exterior = static_cast<std::int32_t>(inside.size());
     slab.labels = Labels(inside.size() + 1);
     // Voxels one plane apart that touch along a voxel edge only (a saddle on the face between
-    // them) are joined or not as volumeToMesh decides, between two voxel planes; between planes
-    // that are not both voxel planes, no such contact is seen.
+    // them) are joined or not as volumeToMesh decides, between two voxel planes; a layer between
+    // voxel planes shows such a contact in its image as a bridge (slicer.h).
     auto acrossVoxelPlanes = [&](int l) {
         return l + 1 < slab.depth && layers[l] == std::floor(layers[l]) && layers[l + 1] == layers[l] + 1.0;
     };

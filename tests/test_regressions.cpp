@@ -36,13 +36,7 @@
 
 using namespace pipetile;
 
-#if defined(__SANITIZE_ADDRESS__)
-#define PIPETILE_TEST_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define PIPETILE_TEST_ASAN 1
-#endif
-#endif
+#include "test_util.h" // PIPETILE_TEST_ASAN
 
 namespace {
 

@@ -15,6 +15,16 @@
 
 #include <glm/vec3.hpp>
 
+// Built with AddressSanitizer (gcc or clang): its shadow memory cannot live under an
+// address-space limit, so tests that set one skip.
+#if defined(__SANITIZE_ADDRESS__)
+#define PIPETILE_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define PIPETILE_TEST_ASAN 1
+#endif
+#endif
+
 namespace pipetile::test {
 
 /// A fresh, empty folder for one test, removed at the end of the test (each instance its own).

@@ -55,7 +55,10 @@ SlicePlan planSlices(const Volume& volume, const SliceOptions& options);
 bool saddleJoinsInside(bool levelSet, const bool beside[2][4]);
 
 /// The signed field (negative inside) on one slice plane. Stateful: it owns an OpenVDB accessor,
-/// so use one object per thread. Values between voxel planes are interpolated linearly along w.
+/// so use one object per thread. Values between voxel planes are interpolated linearly along w,
+/// except in the image eastCracks() reads: there both pixels of a contact across the two voxel
+/// planes that volumeToMesh joins (saddleJoinsInside) are made barely inside, a bridge that the
+/// interpolation, an average of inside and outside, may not show.
 class SlicePlane {
 public:
     SlicePlane(const Volume& volume, const SlicePlan& plan, double w);
