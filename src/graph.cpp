@@ -259,20 +259,13 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
     };
     const bool levelSet = volume.volumeClass() == VolumeClass::LevelSet;
     auto linkAcrossSaddles = [&](int l, const glm::ivec2& p, bool in) {
+        auto layerPair = [&](int plane, const glm::ivec2& q) { return insideAt(l + plane, q); };
         for (const glm::ivec2 step : {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
             const glm::ivec2 q = p + step;
             if (insideAt(l + 1, q) != in || insideAt(l, q) == in || insideAt(l + 1, p) == in) continue;
-            // The face's four positions, p's pair first; its sides lie across the face's normal.
-            const glm::ivec2 normal(step.y, step.x);
-            bool beside[2][4];
-            for (int s = 0; s < 2; ++s) {
-                const glm::ivec2 shift = s == 0 ? -normal : normal;
-                const bool values[4] = {insideAt(l, p + shift), insideAt(l + 1, q + shift), insideAt(l, q + shift),
-                                        insideAt(l + 1, p + shift)};
-                for (int k = 0; k < 4; ++k) beside[s][k] = in ? values[k] : values[(k + 2) % 4];
-            }
-            if (in == saddleJoinsInside(levelSet, beside))
-                slab.labels.join(slab.id(l, p), slab.id(l + 1, q));
+            // p and q are the inside pair, or the outside pair whose partner pair is (q, p).
+            const bool insideJoined = in ? contactJoins(levelSet, layerPair, p, q) : contactJoins(levelSet, layerPair, q, p);
+            if (in == insideJoined) slab.labels.join(slab.id(l, p), slab.id(l + 1, q));
         }
     };
     for (int l = 0; l < slab.depth; ++l)

@@ -154,77 +154,69 @@ struct SlicePlane::Impl {
         imageHeight = hi.y - lo.y;
         const std::size_t count = static_cast<std::size_t>(imageWidth) * static_cast<std::size_t>(imageHeight);
         image.reset(new double[count]);
-        std::vector<double> lower; // between voxel planes: plane w0's own values, for the bridges
+        readVoxelPlane(w0, lo, hi, image.get());
+        if (frac == 0.0) return;
+        // Between voxel planes: the interpolation, and the bridges that need both planes' own values.
+        const std::vector<double> lower(image.get(), image.get() + count);
+        std::vector<double> upper(count);
+        readVoxelPlane(w0 + 1, lo, hi, upper.data());
+        for (std::size_t k = 0; k < count; ++k) image[k] += frac * (upper[k] - image[k]);
+        showBridges(lower, upper);
+    }
+
+    // Voxel plane wi's signed values over the pixels [lo, hi), row-major, read from the leaf
+    // buffers (tiles and empty space through the accessor, once per leaf-sized block).
+    void readVoxelPlane(int wi, const glm::ivec2& lo, const glm::ivec2& hi, double* out) const
+    {
         // Offset of voxel (x, y, z) in a leaf's buffer: (x & 7) * 64 + (y & 7) * 8 + (z & 7).
         constexpr int kStride[3] = {kLeafDim * kLeafDim, kLeafDim, 1};
-        for (int wi : {w0, w0 + 1}) {
-            if (wi == w0 + 1 && frac == 0.0) break;
-            if (wi == w0 + 1) lower.assign(image.get(), image.get() + count);
-            const int wOffset = (wi & (kLeafDim - 1)) * kStride[p.axis];
-            for (int bv = lo.y; bv < hi.y; bv += kLeafDim)
-                for (int bu = lo.x; bu < hi.x; bu += kLeafDim) {
-                    openvdb::Coord c;
-                    c[p.axis] = wi;
-                    c[ua] = bu;
-                    c[va] = bv;
-                    const openvdb::FloatTree::LeafNodeType* leaf = accessor.probeConstLeaf(c);
-                    const float* data = leaf ? leaf->buffer().data() : nullptr;
-                    const double tile = leaf ? 0.0 : signedValue(accessor.getValue(c));
-                    for (int dv = 0; dv < kLeafDim; ++dv) {
-                        double* row = &image[static_cast<std::size_t>(bv + dv - lo.y) * imageWidth + (bu - lo.x)];
-                        const float* column = data ? data + wOffset + dv * kStride[va] : nullptr;
-                        if (wi != w0) {
-                            for (int du = 0; du < kLeafDim; ++du)
-                                row[du] += frac * ((column ? signedValue(column[du * kStride[ua]]) : tile) - row[du]);
-                        } else if (column) {
-                            for (int du = 0; du < kLeafDim; ++du) row[du] = signedValue(column[du * kStride[ua]]);
-                        } else {
-                            std::fill(row, row + kLeafDim, tile);
-                        }
+        const int wOffset = (wi & (kLeafDim - 1)) * kStride[plan->axis];
+        for (int bv = lo.y; bv < hi.y; bv += kLeafDim)
+            for (int bu = lo.x; bu < hi.x; bu += kLeafDim) {
+                openvdb::Coord c;
+                c[plan->axis] = wi;
+                c[ua] = bu;
+                c[va] = bv;
+                const openvdb::FloatTree::LeafNodeType* leaf = accessor.probeConstLeaf(c);
+                const float* data = leaf ? leaf->buffer().data() : nullptr;
+                const double tile = leaf ? 0.0 : signedValue(accessor.getValue(c));
+                for (int dv = 0; dv < kLeafDim; ++dv) {
+                    double* row = &out[static_cast<std::size_t>(bv + dv - lo.y) * imageWidth + (bu - lo.x)];
+                    const float* column = data ? data + wOffset + dv * kStride[va] : nullptr;
+                    if (column) {
+                        for (int du = 0; du < kLeafDim; ++du) row[du] = signedValue(column[du * kStride[ua]]);
+                    } else {
+                        std::fill(row, row + kLeafDim, tile);
                     }
                 }
-        }
-        if (!lower.empty()) showBridges(lower);
+            }
     }
 
     // Voxels of planes w0 and w0 + 1 that touch along an edge across them, where volumeToMesh
     // joins them (saddleJoinsInside), are one region, but a plane between them may see neither
     // inside: the field there is an average of inside and outside. Both pixels are made inside
     // (barely), so that the walk and the slab see the bridge at every plane between.
-    void showBridges(const std::vector<double>& low)
+    void showBridges(const std::vector<double>& low, const std::vector<double>& high)
     {
-        const std::size_t width = static_cast<std::size_t>(imageWidth);
-        auto at = [&](int x, int y) { return static_cast<std::size_t>(y) * width + static_cast<std::size_t>(x); };
-        // Plane w0 + 1's value from the interpolation: low + frac * (high - low).
-        auto high = [&](std::size_t k) { return low[k] + (image[k] - low[k]) / frac; };
+        auto at = [&](const glm::ivec2& q) { return static_cast<std::size_t>(q.y) * imageWidth + q.x; };
+        auto inside = [&](int plane, const glm::ivec2& q) {
+            const bool held = q.x >= 0 && q.y >= 0 && q.x < imageWidth && q.y < imageHeight;
+            return held && (plane == 0 ? low : high)[at(q)] < 0.0;
+        };
         constexpr double kBarelyInside = -1e-9;
         const bool levelSet = sign > 0.0;
         std::vector<std::size_t> bridged;
         for (int y = 1; y + 1 < imageHeight; ++y)
             for (int x = 1; x + 1 < imageWidth; ++x) {
-                const std::size_t k = at(x, y);
-                if (!(low[k] < 0.0) || high(k) < 0.0) continue; // inside below, outside above
+                const glm::ivec2 a(x, y);
+                if (!inside(0, a) || inside(1, a)) continue; // inside below, outside above
                 for (const glm::ivec2 step : {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
-                    const int qx = x + step.x, qy = y + step.y;
-                    const std::size_t q = at(qx, qy);
-                    if (low[q] < 0.0 || !(high(q) < 0.0)) continue; // outside below, inside above
-                    if (image[k] < 0.0 && image[q] < 0.0) continue;  // seen already
-                    const glm::ivec2 normal(step.y, step.x);
-                    bool beside[2][4];
-                    for (int s = 0; s < 2; ++s) {
-                        const int sx = s == 0 ? -normal.x : normal.x, sy = s == 0 ? -normal.y : normal.y;
-                        const bool inBox = x + sx >= 0 && y + sy >= 0 && x + sx < imageWidth && y + sy < imageHeight &&
-                                           qx + sx >= 0 && qy + sy >= 0 && qx + sx < imageWidth && qy + sy < imageHeight;
-                        const std::size_t ks = inBox ? at(x + sx, y + sy) : k, qs = inBox ? at(qx + sx, qy + sy) : q;
-                        // The inside pair (p below, q above), then the outside pair (q below, p above).
-                        beside[s][0] = inBox && low[ks] < 0.0;
-                        beside[s][1] = inBox && high(qs) < 0.0;
-                        beside[s][2] = inBox && low[qs] < 0.0;
-                        beside[s][3] = inBox && high(ks) < 0.0;
-                    }
-                    if (!saddleJoinsInside(levelSet, beside)) continue;
-                    bridged.push_back(k);
-                    bridged.push_back(q);
+                    const glm::ivec2 b = a + step;
+                    if (inside(0, b) || !inside(1, b)) continue;          // outside below, inside above
+                    if (image[at(a)] < 0.0 && image[at(b)] < 0.0) continue; // the plane shows it already
+                    if (!contactJoins(levelSet, inside, a, b)) continue;
+                    bridged.push_back(at(a));
+                    bridged.push_back(at(b));
                 }
             }
         for (std::size_t k : bridged) image[k] = std::min(image[k], kBarelyInside);

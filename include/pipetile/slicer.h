@@ -54,6 +54,25 @@ SlicePlan planSlices(const Volume& volume, const SliceOptions& options);
 /// then the joined one. (Found on all 256 configurations of the two sides.)
 bool saddleJoinsInside(bool levelSet, const bool beside[2][4]);
 
+/// A contact across two voxel planes: `a` inside on the lower plane and its neighbour `b` inside on
+/// the upper one, `b` below and `a` above outside. Whether volumeToMesh joins a and b
+/// (saddleJoinsInside, with the faces beside this one along its normal); `inside(plane, pixel)`
+/// reads plane 0 (lower) or 1 (upper), false outside what it holds.
+template <class InsideFn>
+bool contactJoins(bool levelSet, const InsideFn& inside, const glm::ivec2& a, const glm::ivec2& b)
+{
+    const glm::ivec2 step = b - a, normal(step.y, step.x);
+    bool beside[2][4];
+    for (int s = 0; s < 2; ++s) {
+        const glm::ivec2 shift = s == 0 ? -normal : normal;
+        beside[s][0] = inside(0, a + shift);
+        beside[s][1] = inside(1, b + shift);
+        beside[s][2] = inside(0, b + shift);
+        beside[s][3] = inside(1, a + shift);
+    }
+    return saddleJoinsInside(levelSet, beside);
+}
+
 /// The signed field (negative inside) on one slice plane. Stateful: it owns an OpenVDB accessor,
 /// so use one object per thread. Values between voxel planes are interpolated linearly along w,
 /// except in the image eastCracks() reads: there both pixels of a contact across the two voxel
