@@ -237,17 +237,22 @@ long long overlapPixels(const BoundaryLoop& a, const BoundaryLoop& b, const glm:
     return common;
 }
 
-double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& p)
+double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p)
 {
     double nearest = std::numeric_limits<double>::infinity();
-    const std::size_t m = loop.points.size();
+    const std::size_t m = polygon.size();
     for (std::size_t i = 0; i < m; ++i) {
-        const glm::dvec2 a = loop.points[i], ab = loop.points[(i + 1) % m] - a;
+        const glm::dvec2 a = polygon[i], ab = polygon[(i + 1) % m] - a;
         const double len2 = glm::dot(ab, ab);
         const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
         nearest = std::min(nearest, glm::length(a + t * ab - p));
     }
     return nearest;
+}
+
+double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& p)
+{
+    return polygonClearance(loop.points, p);
 }
 
 namespace {
@@ -714,11 +719,12 @@ std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
 
 namespace {
 
-// Whether a point lies off the loop's polygon by more than rounding.
-bool offPolygon(const BoundaryLoop& loop, const glm::dvec2& point)
+// Whether a point lies off a polygon by more than rounding (pixels; crossings are placed to about
+// 1e-12): a centre on it gives no rays.
+bool offPolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point)
 {
-    constexpr double kRounding = 1e-9; // pixels; crossings are placed to about 1e-12
-    return boundaryClearance(loop, point) > kRounding;
+    constexpr double kRounding = 1e-9;
+    return polygonClearance(polygon, point) > kRounding;
 }
 
 } // namespace
@@ -737,7 +743,7 @@ glm::dvec2 centralPoint(const BoundaryLoop& loop, const glm::dvec2* near)
 {
     if (loop.corners.empty()) return loop.centroid;
     // A centroid on the polygon is inside only by rounding, and no rays can be cast from it.
-    const bool usable = centroidInside(loop) && offPolygon(loop, loop.centroid);
+    const bool usable = centroidInside(loop) && offPolygon(loop.points, loop.centroid);
     return usable ? loop.centroid : deepestPixel(loop, near, std::numeric_limits<int>::max());
 }
 
@@ -749,24 +755,36 @@ glm::dvec2 clearPixelNear(const BoundaryLoop& loop, const glm::dvec2& near)
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center)
 {
+    std::vector<glm::dvec2> polygon = loop.points;
+    if (loop.hole()) std::reverse(polygon.begin(), polygon.end());
+    LoopView view = viewOfPolygon(std::move(polygon), center);
+    view.hole = loop.hole();
+    return view;
+}
+
+LoopView viewOfPolygon(std::vector<glm::dvec2> polygon, const glm::dvec2& center)
+{
     LoopView view;
     view.center = center;
-    view.hole = loop.hole();
-    const std::size_t m = loop.points.size();
-    view.polygon.resize(m);
+    const std::size_t m = polygon.size();
     view.turns.resize(m);
     double total = 0.0;
     for (std::size_t i = 0; i < m; ++i) {
-        const glm::dvec2 p = loop.points[view.hole ? m - 1 - i : i];
-        view.polygon[i] = p;
-        view.turns[i] = turnsOf(p.x - center.x, p.y - center.y);
+        view.turns[i] = turnsOf(polygon[i].x - center.x, polygon[i].y - center.y);
         if (i > 0) total += wrappedDelta(view.turns[i] - view.turns[i - 1]);
     }
     if (m > 0) total += wrappedDelta(view.turns[0] - view.turns[m - 1]);
     // A centre on the polygon itself sees one of its segments as half a turn either way: it is
     // wound around by no defined number of turns.
-    view.winding = offPolygon(loop, center) ? static_cast<int>(std::lround(total)) : 0;
+    view.winding = offPolygon(polygon, center) ? static_cast<int>(std::lround(total)) : 0;
+    view.polygon = std::move(polygon);
     return view;
+}
+
+bool liesWellInside(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point)
+{
+    constexpr double kClearance = 0.25; // pixels: rays from nearer an edge meet it at grazing angles
+    return insidePolygon(polygon, point) && polygonClearance(polygon, point) >= kClearance;
 }
 
 RadialProfile radialProfile(const LoopView& view, int directions)
@@ -795,6 +813,23 @@ RadialProfile radialProfile(const LoopView& view, int directions)
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     return castRaysImpl(view, rays, plane);
+}
+
+namespace {
+
+// No field at all: castRaysImpl then leaves every crossing on the polygon.
+struct NoField {
+    void cell(int, int, double values[4]) const { values[0] = values[1] = values[2] = values[3] = 1.0; }
+    double sample(const glm::dvec2&) const { return 1.0; }
+};
+
+} // namespace
+
+Contour castPolygon(const LoopView& view, const RaySet& rays)
+{
+    Contour contour = castRaysImpl(view, rays, NoField{});
+    contour.interpolationFallbacks = 0; // on the polygon by design, not for want of a root
+    return contour;
 }
 
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane)

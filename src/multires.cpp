@@ -14,6 +14,7 @@
 #include <array>
 #include <chrono>
 #include <limits>
+#include <map>
 #include <memory>
 #include <cmath>
 #include <cstring>
@@ -88,6 +89,14 @@ std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const
         for (std::size_t r = 0; r < byDistance.size(); ++r) rank[x][byDistance[r].second] = static_cast<int>(r);
     }
     return rank;
+}
+
+// Where `p` lies along segment ab: 0 at a, 1 at b.
+double placeOn(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& p)
+{
+    const glm::dvec2 ab = b - a;
+    const double length2 = glm::dot(ab, ab);
+    return length2 > 0.0 ? glm::dot(p - a, ab) / length2 : 0.0;
 }
 
 // Replaces the triangle on edge u-v by a fan through `between` (vertices that lie on that edge,
@@ -424,6 +433,7 @@ bool Reconstruction::splitJunction(Junction& junction) const
         junction.hub = glm::dvec2(0.0);
         for (int cut : junction.cuts) junction.hub += polygon[cut] / static_cast<double>(n);
         junction.hubW = ontoSaddle(junction.hub);
+        composeParts(junction);
         return true;
     }
     junction.hubbed = false;
@@ -437,8 +447,92 @@ bool Reconstruction::splitJunction(Junction& junction) const
         const glm::dvec2 middle = 0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]]));
         junction.chordArcs.push_back(static_cast<int>(a));
         junction.chordMiddles.push_back(planeToIndex(mPlan.axis, middle, ontoSaddle(middle)));
+        junction.nodePoints.push_back(middle); // collected here, placed after the cuts below
     }
+    composeParts(junction);
     return true;
+}
+
+void Reconstruction::composeParts(Junction& junction) const
+{
+    using Part = Junction::Part;
+    const SliceLoop& single = mLoops[junction.single.first][junction.single.second];
+    const SliceLoop* inner = junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second] : nullptr;
+    const double w = mPositions[junction.single.first];
+    const std::size_t n = junction.cuts.size();
+    // Nodes: cuts, the hole's cuts, then the hub or the chord middles (splitJunction left those
+    // middles' in-plane points in nodePoints).
+    const std::vector<glm::dvec2> middles = std::move(junction.nodePoints);
+    junction.nodePoints.clear();
+    for (int cut : junction.cuts) junction.nodePoints.push_back(single.view.polygon[cut]);
+    if (inner)
+        for (int cut : junction.innerCuts) junction.nodePoints.push_back(inner->view.polygon[cut]);
+    for (const glm::dvec2& p : junction.nodePoints) junction.nodeIndex.push_back(planeToIndex(mPlan.axis, p, w));
+    const int firstMiddle = static_cast<int>(junction.nodePoints.size());
+    if (junction.hubbed) {
+        junction.nodePoints.push_back(junction.hub);
+        junction.nodeIndex.push_back(planeToIndex(mPlan.axis, junction.hub, junction.hubW));
+    }
+    for (std::size_t c = 0; c < junction.chordMiddles.size(); ++c) {
+        junction.nodePoints.push_back(middles[c]);
+        junction.nodeIndex.push_back(junction.chordMiddles[c]);
+    }
+    auto middleOf = [&](std::size_t a) { // the node of the chord closing arc a, or -1
+        const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
+        return at == junction.chordArcs.end() ? -1 : firstMiddle + static_cast<int>(at - junction.chordArcs.begin());
+    };
+    // Arc a of a polygon: from cut `from` to cut `to`, stepping `step` through its points.
+    auto appendArc = [](Part& part, int member, std::size_t size, int from, int to, int step, int fromNode, int toNode) {
+        for (int p = from;; p = static_cast<int>((p + step + size) % size)) {
+            part.corners.push_back({member, p, p == from ? fromNode : p == to ? toNode : -1});
+            if (p == to) break;
+        }
+    };
+    auto appendNode = [](Part& part, int node) {
+        if (node >= 0) part.corners.push_back({-1, -1, node});
+    };
+    const bool singleHole = single.loop.hole(), rim = junction.kind == EventKind::Rim;
+    for (std::size_t k = 0; k < junction.many.size(); ++k) {
+        // The corners in the order the minimum-area tiling took them (assemble): partner k's arcs
+        // in walk order, each closed through the hub, by its chord, or for a ring's sector the
+        // wall's arc, the chord at its end, the hole's arc back and the chord at its start.
+        Part part;
+        for (std::size_t a = 0; a < n; ++a) {
+            if (junction.owner[a] != static_cast<int>(k)) continue;
+            const std::size_t b = (a + 1) % n;
+            appendArc(part, 0, single.view.polygon.size(), junction.cuts[a], junction.cuts[b], 1, static_cast<int>(a),
+                      static_cast<int>(b));
+            if (inner) {
+                appendNode(part, middleOf(a));
+                appendArc(part, 1, inner->view.polygon.size(), junction.innerCuts[b], junction.innerCuts[a], -1,
+                          static_cast<int>(n + b), static_cast<int>(n + a));
+                appendNode(part, middleOf((a + n - 1) % n));
+            } else if (!junction.hubbed) {
+                const int own = middleOf(a);
+                appendNode(part, own >= 0 ? own : middleOf(b));
+            }
+        }
+        if (junction.hubbed) appendNode(part, firstMiddle);
+        const auto [ps, pl] = junction.many[k];
+        const SliceLoop& partner = mLoops[ps][pl];
+        if (partner.loop.hole() != singleHole && !rim) std::reverse(part.corners.begin(), part.corners.end());
+        std::vector<glm::dvec2> polygon;
+        for (const Part::Corner& c : part.corners)
+            polygon.push_back(c.member < 0 ? junction.nodePoints[c.node]
+                                           : (c.member == 0 ? single : *inner).view.polygon[c.point]);
+        double area2 = 0.0;
+        for (std::size_t i = 0; i < polygon.size(); ++i) {
+            const glm::dvec2 a = polygon[i], b = polygon[(i + 1) % polygon.size()];
+            area2 += a.x * b.y - a.y * b.x;
+        }
+        // Its rays come from the partner's central point, so that ray k of both meets the same
+        // side of the branch. A part that does not hold that point (a ring's sector against a
+        // whole wall), or runs clockwise, gives no contour and falls back to the minimum-area
+        // tiler.
+        if (area2 > 0.0 && liesWellInside(polygon, partner.view.center)) part.view = viewOfPolygon(polygon, partner.view.center);
+        part.view.hole = partner.loop.hole();
+        junction.parts.push_back(std::move(part));
+    }
 }
 
 void Reconstruction::followCentres()
@@ -946,21 +1040,44 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             members.push_back(member);
         }
     }
-    // Junction vertices, the same at every level: the cut points on the single contour's
-    // polygon, then the hub where the chords from the cuts meet, inside the contour.
-    struct Extra { int point; std::uint32_t id; };
-    std::vector<std::vector<Extra>> extras(members.size()); // per member
-    std::vector<std::uint32_t> firstCutOf(mJunctions.size()), hubOf(mJunctions.size()); // hub: after the cuts
+    // Junction vertices. Nodes, the same at every level (junction.nodePoints); then each part's
+    // crossings: the partner's rays cast against the part's polygon, so that the part is tiled to
+    // the partner like any band. A part that gives no contour (no crossings) is tiled by the
+    // minimum-area tiler instead.
+    std::vector<std::vector<Contour>> parts(mJunctions.size()); // per junction, per partner
+    forEachIndex(mOptions.threads, mJunctions.size(), [&](std::size_t j) {
+        const Junction& junction = mJunctions[j];
+        for (std::size_t k = 0; k < junction.parts.size(); ++k) {
+            const auto [ps, pl] = junction.many[k];
+            Contour c = castPolygon(junction.parts[k].view, contours[ps][pl].rays);
+            if (countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != c.rays.count()) c.crossings.clear();
+            parts[j].push_back(std::move(c));
+        }
+    });
+    // Extras: the vertices on a member's contour edges that its own crossings do not give (cuts,
+    // and the parts' crossings on its arcs), by polygon segment and place along it (0 at its
+    // first point). Parts' crossings on chords: per junction, by the chord's nodes (lower first).
+    struct Extra { int segment; double param; std::uint32_t id; glm::dvec2 point; };
+    std::vector<std::vector<Extra>> extras(members.size());
+    using Chord = std::pair<int, int>;
+    std::vector<std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>> onChord(mJunctions.size());
+    std::vector<std::uint32_t> firstNodeOf(mJunctions.size());
+    std::vector<std::vector<std::uint32_t>> partFirst(mJunctions.size());
+    auto memberAt = [&](const std::pair<int, int>& loop) { return static_cast<std::size_t>(memberOf[loop.first][loop.second]); };
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
-        const int single = memberOf[junction.single.first][junction.single.second];
-        firstCutOf[j] = vertexCount;
-        for (int cut : junction.cuts) extras[single].push_back({cut, vertexCount++});
-        if (junction.inner.first >= 0)
-            for (int cut : junction.innerCuts)
-                extras[memberOf[junction.inner.first][junction.inner.second]].push_back({cut, vertexCount++});
-        hubOf[j] = vertexCount; // the hub, or the first chord middle
-        vertexCount += junction.hubbed ? 1 : static_cast<std::uint32_t>(junction.chordMiddles.size());
+        const std::size_t n = junction.cuts.size();
+        firstNodeOf[j] = vertexCount;
+        for (std::size_t k = 0; k < n; ++k)
+            extras[memberAt(junction.single)].push_back({junction.cuts[k], 0.0, vertexCount + static_cast<std::uint32_t>(k), junction.nodePoints[k]});
+        for (std::size_t k = 0; k < junction.innerCuts.size(); ++k)
+            extras[memberAt(junction.inner)].push_back(
+                {junction.innerCuts[k], 0.0, vertexCount + static_cast<std::uint32_t>(n + k), junction.nodePoints[n + k]});
+        vertexCount += static_cast<std::uint32_t>(junction.nodePoints.size());
+        for (const Contour& part : parts[j]) {
+            partFirst[j].push_back(vertexCount);
+            vertexCount += static_cast<std::uint32_t>(part.crossings.size());
+        }
     }
     mesh.vertices.resize(vertexCount);
     auto toWorld = [&](const glm::dvec2& uv, int plane) {
@@ -973,17 +1090,37 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         if (m.startsTube && m.tube->bottom.fan) mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
         if (m.endsTube && m.tube->top.fan)
             mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
-        for (const Extra& e : extras[i]) mesh.vertices[e.id] = toWorld(mLoops[m.slice][m.loop].view.polygon[e.point], m.slice);
     });
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
-        if (junction.hubbed) mesh.vertices[hubOf[j]] = mVolume.indexToWorld(planeToIndex(mPlan.axis, junction.hub, junction.hubW));
-        for (std::size_t c = 0; c < junction.chordMiddles.size(); ++c)
-            mesh.vertices[hubOf[j] + c] = mVolume.indexToWorld(junction.chordMiddles[c]);
+        for (std::size_t node = 0; node < junction.nodeIndex.size(); ++node)
+            mesh.vertices[firstNodeOf[j] + node] = mVolume.indexToWorld(junction.nodeIndex[node]);
+        for (std::size_t k = 0; k < parts[j].size(); ++k) {
+            const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
+            const std::vector<Crossing>& x = parts[j][k].crossings;
+            for (std::size_t c = 0; c < x.size(); ++c) {
+                const std::uint32_t id = partFirst[j][k] + static_cast<std::uint32_t>(c);
+                const Junction::Part::Corner &a = corners[x[c].segment], &b = corners[(x[c].segment + 1) % corners.size()];
+                const std::pair<int, int> loop = a.member == 1 ? junction.inner : junction.single;
+                const std::vector<glm::dvec2>& polygon = mLoops[loop.first][loop.second].view.polygon;
+                const int size = static_cast<int>(polygon.size());
+                if (a.member >= 0 && a.member == b.member && (b.point == (a.point + 1) % size || a.point == (b.point + 1) % size)) {
+                    // On an arc: a segment of that contour's polygon.
+                    const int s = b.point == (a.point + 1) % size ? a.point : b.point;
+                    extras[memberAt(loop)].push_back({s, placeOn(polygon[s], polygon[(s + 1) % size], x[c].point), id, x[c].point});
+                    mesh.vertices[id] = toWorld(x[c].point, loop.first);
+                } else { // on a chord between two nodes
+                    const Chord chord{std::min(a.node, b.node), std::max(a.node, b.node)};
+                    const double t = placeOn(junction.nodePoints[chord.first], junction.nodePoints[chord.second], x[c].point);
+                    onChord[j][chord].push_back({t, id});
+                    mesh.vertices[id] = mVolume.indexToWorld(glm::mix(junction.nodeIndex[chord.first], junction.nodeIndex[chord.second], t));
+                }
+            }
+        }
     }
 
-    // A contour's ring: its crossings in walk order with its junction vertices merged in by their
-    // polygon point (integers: segment indices); after[k] lists those between crossings k and k+1.
+    // A contour's ring: its crossings in walk order with its extras merged in by their place on
+    // the polygon; after[k] lists those between crossings k and k+1.
     struct Ring {
         std::vector<std::uint32_t> ids;
         std::vector<glm::dvec2> points; // in-plane, pixel units
@@ -991,39 +1128,51 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     };
     auto ringOf = [&](std::size_t i) {
         const Member& m = members[i];
-        const std::vector<Crossing>& x = m.contour->crossings;
+        const Contour& contour = *m.contour;
+        const std::vector<Crossing>& x = contour.crossings;
         const std::vector<glm::dvec2>& polygon = mLoops[m.slice][m.loop].view.polygon;
-        Ring ring;
-        ring.after.resize(x.size());
-        // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
-        // segment, or a cut at its segment's start, comes last.
         const long long segments = static_cast<long long>(polygon.size());
+        // Where a crossing lies along its segment: where its ray meets the polygon.
+        auto placeOf = [&](const Crossing& c) {
+            const glm::dvec2 onPolygon = contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
+            return placeOn(polygon[c.segment], polygon[(c.segment + 1) % segments], onPolygon);
+        };
+        // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
+        // segment, or an extra before it on its segment, comes last.
         auto key = [&](long long segment) { return (segment - x[0].segment + segments) % segments; };
         std::vector<long long> crossingKey(x.size());
         for (std::size_t k = 0; k < x.size(); ++k)
             crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
-        std::vector<std::pair<long long, const Extra*>> cuts;
-        for (const Extra& e : extras[i]) cuts.push_back({key(e.point) == 0 ? segments : key(e.point), &e});
-        std::sort(cuts.begin(), cuts.end(), [](const auto& a, const auto& b) {
-            return a.first != b.first ? a.first < b.first : a.second->id < b.second->id; // a cut before its arc's middle
-        });
-        for (const auto& [k, e] : cuts) {
-            const std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), k) - crossingKey.begin();
-            ring.after[before - 1].push_back(e->id);
+        const double startPlace = extras[i].empty() ? 0.0 : placeOf(x[0]);
+        std::vector<std::pair<std::pair<long long, double>, const Extra*>> placed;
+        for (const Extra& e : extras[i]) {
+            const long long k = key(e.segment);
+            placed.push_back({{k == 0 && e.param <= startPlace ? segments : k, e.param}, &e});
         }
+        std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) {
+            return a.first != b.first ? a.first < b.first : a.second->id < b.second->id;
+        });
+        std::vector<std::vector<const Extra*>> after(x.size());
+        for (const auto& [at, e] : placed) {
+            std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
+            while (before < x.size() && crossingKey[before] == at.first && placeOf(x[before]) < at.second) ++before;
+            after[before - 1].push_back(e);
+        }
+        Ring ring;
+        ring.after.resize(x.size());
         for (std::size_t k = 0; k < x.size(); ++k) {
             ring.ids.push_back(m.first + static_cast<std::uint32_t>(k));
             ring.points.push_back(x[k].point);
-            for (std::uint32_t id : ring.after[k]) {
-                ring.ids.push_back(id);
-                for (const Extra& e : extras[i])
-                    if (e.id == id) ring.points.push_back(polygon[e.point]);
+            for (const Extra* e : after[k]) {
+                ring.after[k].push_back(e->id);
+                ring.ids.push_back(e->id);
+                ring.points.push_back(e->point);
             }
         }
         return ring;
     };
-    // Junction vertices lie on contour edges that the bands and caps tile as single edges: the
-    // triangle on each such edge becomes a fan through them.
+    // Extras lie on contour edges that the bands and caps tile as single edges: the triangle on
+    // each such edge becomes a fan through them.
     auto splitForExtras = [&](std::vector<Triangle>& triangles, std::size_t i) {
         if (extras[i].empty()) return;
         const Ring ring = ringOf(i);
@@ -1049,14 +1198,15 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             result.tilingBytes += tree->bytes();
         }
     }
-    // Bands: each member but a tube's first joins the one before it, with vertex indices of both.
-    std::vector<std::vector<Triangle>> bands(members.size());
-    forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
-        const Member& m = members[i];
-        if (m.startsTube) return;
-        const Member& previous = members[i - 1];
-        const std::uint32_t previousCount = static_cast<std::uint32_t>(previous.contour->crossings.size());
-        std::vector<Triangle>& band = bands[i];
+    // The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
+    // in band-local ids: the lower contour's crossings, then the upper one's.
+    struct Side {
+        const Contour* contour;
+        const ContourString* string; // with the contour tree tiler
+        const ContourTree* tree;
+        std::uint32_t first;
+    };
+    auto tileSides = [&](const Side& lowerSide, const Side& upperSide, std::size_t& bytes) {
         if (mOptions.tiler == TilerKind::ContourTree) {
             // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
             // closest to the upper contour's, then the upper one the F edge closest to that
@@ -1064,42 +1214,52 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             // choice made for one band into the next, where the upper contour's sector can hold
             // the other F edge (bean: the arm tip grows past a ray between two slices) and the
             // traversal then paired the tip with the hole's wall.
-            const ContourTree* lower = trees[i - 1].get();
-            const ContourTree* upper = trees[i].get();
+            const ContourTree* lower = lowerSide.tree;
+            const ContourTree* upper = upperSide.tree;
             std::unique_ptr<ContourTree> rankedLower, rankedUpper;
             if (lower->ambiguousSectors() > 0) {
                 rankedLower = std::make_unique<ContourTree>(
-                    strings[i - 1], rankAgainstNeighbour(*previous.contour, strings[i - 1], *m.contour, *upper));
+                    *lowerSide.string, rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
                 lower = rankedLower.get();
-                bandBytes[i] += lower->bytes();
+                bytes += lower->bytes();
             }
             if (upper->ambiguousSectors() > 0) {
                 rankedUpper = std::make_unique<ContourTree>(
-                    strings[i], rankAgainstNeighbour(*m.contour, strings[i], *previous.contour, *lower));
+                    *upperSide.string, rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
                 upper = rankedUpper.get();
-                bandBytes[i] += upper->bytes();
+                bytes += upper->bytes();
             }
-            band = tileBand(*lower, *upper);
-        } else {
-            // The baselines see the same contours as world-space points.
-            const auto first = mesh.vertices.begin();
-            const std::vector<glm::dvec3> a(first + previous.first, first + previous.first + previousCount);
-            const std::vector<glm::dvec3> b(first + m.first, first + m.first + m.contour->crossings.size());
-            ToroidalStats stats;
-            band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
-            // A strip that fans one point over the whole other contour is no manifold (the
-            // oblique tube's tiny sections with --tiler optimal, before this).
-            band = withoutFullFans(band, previousCount, static_cast<std::uint32_t>(b.size()));
-            bandBytes[i] = stats.bytes;
+            return tileBand(*lower, *upper);
         }
-        // Band-local indices: the previous contour's vertices, then this one's.
-        const bool flip = m.tube->hole != mirrored;
+        // The baselines see the same contours as world-space points.
+        const auto first = mesh.vertices.begin();
+        const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
+        const std::vector<glm::dvec3> a(first + lowerSide.first, first + lowerSide.first + lowerCount);
+        const std::vector<glm::dvec3> b(first + upperSide.first, first + upperSide.first + upperSide.contour->crossings.size());
+        ToroidalStats stats;
+        std::vector<Triangle> band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+        bytes += stats.bytes;
+        // A strip that fans one point over the whole other contour is no manifold (the oblique
+        // tube's tiny sections with --tiler optimal, before this).
+        return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
+    };
+    auto sideOf = [&](std::size_t i) { return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first}; };
+    // Band-local ids to the mesh's, turned outward.
+    auto place = [](std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip) {
+        const std::uint32_t lowerCount = static_cast<std::uint32_t>(lower.contour->crossings.size());
         for (Triangle& t : band) {
-            for (std::uint32_t& v : t) v = v < previousCount ? previous.first + v : m.first + (v - previousCount);
+            for (std::uint32_t& v : t) v = v < lowerCount ? lower.first + v : upper.first + (v - lowerCount);
             if (flip) std::swap(t[1], t[2]);
         }
-        splitForExtras(band, i - 1);
-        splitForExtras(band, i);
+    };
+    // Bands: each member but a tube's first joins the one before it.
+    std::vector<std::vector<Triangle>> bands(members.size());
+    forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
+        if (members[i].startsTube) return;
+        bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i]);
+        place(bands[i], sideOf(i - 1), sideOf(i), members[i].tube->hole != mirrored);
+        splitForExtras(bands[i], i - 1);
+        splitForExtras(bands[i], i);
     });
     result.tilingSeconds = secondsSince(tiling);
     for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
@@ -1159,86 +1319,110 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
         if (members[i].endsTube) emitCap(i, true);
     }
-    // Junctions: each partner's loop (its arcs of the single contour, closed through the hub or
-    // by chords; for a ring, its sector) is tiled to the partner's ring by the minimum-area
-    // acceptable surface. Loops share each chord once in either direction, so the pieces join
-    // into one manifold with c - 2 saddles for c contours.
+    // Junctions: each part is tiled to its partner. Where its polygon gave a contour, by the
+    // band, then the part's edges are split by the vertices on them (the single contour's own
+    // crossings and extras along an arc, the other parts' crossings along a shared chord, the
+    // nodes); else from all those vertices by the minimum-area tiler. Parts share each chord once
+    // in either direction, so the pieces join into one manifold with c - 2 saddles for c contours.
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
-        const int single = memberOf[junction.single.first][junction.single.second];
-        const Ring ring = ringOf(single);
-        const bool fork = junction.kind == EventKind::Fork;
-        const bool singleHole = mLoops[junction.single.first][junction.single.second].loop.hole();
-        const std::size_t n = junction.cuts.size(), size = ring.ids.size();
-        auto positionOf = [&](std::size_t cut) { // of this junction's cut vertex in the ring
-            const std::uint32_t id = firstCutOf[j] + static_cast<std::uint32_t>(cut);
-            return static_cast<std::size_t>(std::find(ring.ids.begin(), ring.ids.end(), id) - ring.ids.begin());
-        };
-        auto appendArc = [&](std::vector<std::uint32_t>& part, std::size_t a) { // cut a to cut a + 1
-            for (std::size_t p = positionOf(a), to = positionOf((a + 1) % n);; p = (p + 1) % size) {
-                part.push_back(ring.ids[p]);
-                if (p == to) break;
-            }
-        };
-        // A ring's hole: its cut k is vertex firstCutOf + n + k; arc k is appended from cut k + 1
-        // back to cut k (the ring's side of the hole on its left).
-        const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberOf[junction.inner.first][junction.inner.second]) : Ring{};
-        auto appendInnerArcBackward = [&](std::vector<std::uint32_t>& part, std::size_t a) {
-            const std::uint32_t first = firstCutOf[j] + static_cast<std::uint32_t>(n);
-            auto at = [&](std::size_t k) {
-                return static_cast<std::size_t>(std::find(innerRing.ids.begin(), innerRing.ids.end(), first + static_cast<std::uint32_t>(k)) -
-                                                innerRing.ids.begin());
-            };
-            const std::size_t count = innerRing.ids.size();
-            for (std::size_t p = at((a + 1) % n), to = at(a);; p = (p + count - 1) % count) {
-                part.push_back(innerRing.ids[p]);
-                if (p == to) break;
-            }
-        };
-        auto chordMiddleOf = [&](std::size_t a) { // the chord closing arc a, or -1
-            const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
-            return at == junction.chordArcs.end() ? -1 : static_cast<int>(hubOf[j] + (at - junction.chordArcs.begin()));
-        };
+        const Ring ring = ringOf(memberAt(junction.single));
+        const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberAt(junction.inner)) : Ring{};
+        const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
+        const std::uint32_t firstNode = firstNodeOf[j];
+        std::map<Chord, std::vector<std::pair<double, std::uint32_t>>> chords = onChord[j];
+        for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
         for (std::size_t k = 0; k < junction.many.size(); ++k) {
-            // Partner k's loop: its arcs in walk order, each closed through the hub; or for a gap's
-            // arc by its chord, which the partner owning the arcs around it crosses the other way;
-            // or for a ring's sector the wall's arc, the chord at its end, the hole's arc back and
-            // the chord at its start. A chord passes through its middle vertex.
-            std::vector<std::uint32_t> part;
-            for (std::size_t a = 0; a < n; ++a) {
-                if (junction.owner[a] != static_cast<int>(k)) continue;
-                appendArc(part, a);
-                if (junction.inner.first >= 0) {
-                    part.push_back(static_cast<std::uint32_t>(chordMiddleOf(a)));
-                    appendInnerArcBackward(part, a);
-                    part.push_back(static_cast<std::uint32_t>(chordMiddleOf((a + n - 1) % n)));
-                } else if (!junction.hubbed) {
-                    const int own = chordMiddleOf(a), next = chordMiddleOf((a + 1) % n);
-                    part.push_back(static_cast<std::uint32_t>(own >= 0 ? own : next));
+            // The part's boundary: every vertex on it, in its order. Along an arc, the ring's
+            // entries from one cut to the next (as the bands split their edges); along a chord,
+            // the parts' crossings on it.
+            const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
+            std::vector<std::uint32_t> boundary;
+            for (std::size_t c = 0; c < corners.size();) {
+                const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
+                if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
+                const Ring& r = a.member == 1 ? innerRing : ring;
+                const std::size_t size = r.ids.size();
+                const int points = static_cast<int>(
+                    mLoops[(a.member == 1 ? junction.inner : junction.single).first][(a.member == 1 ? junction.inner : junction.single).second]
+                        .view.polygon.size());
+                const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
+                if (a.member >= 0 && a.member == b.member && (forward || backward)) {
+                    std::size_t end = c + 1;
+                    while (corners[end % corners.size()].node < 0) ++end;
+                    const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
+                    std::size_t p = static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) - r.ids.begin());
+                    for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to; p = (p + (forward ? 1 : size - 1)) % size)
+                        boundary.push_back(r.ids[p]);
+                    c = end;
+                    continue;
                 }
+                const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
+                if (along != chords.end()) {
+                    if (a.node < b.node)
+                        for (const auto& [t, id] : along->second) boundary.push_back(id);
+                    else
+                        for (auto e = along->second.rbegin(); e != along->second.rend(); ++e) boundary.push_back(e->second);
+                }
+                ++c;
             }
-            if (junction.hubbed) part.push_back(hubOf[j]);
-            const auto [ps, pl] = junction.many[k];
-            const std::vector<std::uint32_t> partner = ringOf(memberOf[ps][pl]).ids;
-            // An arc of a wall that goes to a hole is the wall's side of the hole it bounds with
-            // the chord: clockwise, where the hole's ring is counterclockwise (and the other way
-            // round); the band between them faces the hole, as a hole tube's bands do.
-            const bool partnerHole = mLoops[ps][pl].loop.hole();
-            const bool rim = junction.kind == EventKind::Rim;
-            if (partnerHole != singleHole && !rim) std::reverse(part.begin(), part.end());
+            const std::size_t partner = memberAt(junction.many[k]);
+            const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
             // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
             const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
-            const std::vector<std::uint32_t>& lower = fork || rim ? part : partner;
-            const std::vector<std::uint32_t>& upper = fork || rim ? partner : part;
-            std::vector<glm::dvec3> lowerPoints, upperPoints;
-            for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
-            for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-            for (Triangle t : withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
-                                              static_cast<std::uint32_t>(upper.size()))) {
-                for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
-                if (flip) std::swap(t[1], t[2]);
-                mesh.triangles.push_back(t);
+            // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
+            // are not all there in their order (a crossing at a cut, placed on the next arc).
+            std::vector<std::size_t> at;
+            if (!parts[j][k].crossings.empty()) {
+                const std::uint32_t first = partFirst[j][k], count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
+                for (std::size_t e = 0; e < boundary.size(); ++e)
+                    if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
+                const auto start = std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
+                if (start != at.end()) std::rotate(at.begin(), start, at.end());
+                for (std::uint32_t c = 0; c < at.size(); ++c)
+                    if (at.size() != count || boundary[at[c]] != first + c) at.clear();
             }
+            std::vector<Triangle> triangles;
+            if (!at.empty()) {
+                const Contour& part = parts[j][k];
+                ContourString string;
+                std::unique_ptr<ContourTree> tree;
+                if (mOptions.tiler == TilerKind::ContourTree) {
+                    string = contourString(part);
+                    tree = std::make_unique<ContourTree>(string);
+                }
+                const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
+                const Side& lower = fork || rim ? partSide : partnerSide;
+                const Side& upper = fork || rim ? partnerSide : partSide;
+                std::size_t bytes = 0;
+                triangles = tileSides(lower, upper, bytes);
+                result.tilingBytes += bytes;
+                place(triangles, lower, upper, flip);
+                // The part's edges, split by the vertices the boundary has between its crossings.
+                for (std::size_t c = 0; c < at.size(); ++c) {
+                    const std::size_t next = at[(c + 1) % at.size()];
+                    std::vector<std::uint32_t> between;
+                    for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
+                        between.push_back(boundary[e]);
+                    if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
+                }
+                splitForExtras(triangles, partner);
+            } else {
+                ++result.areaJunctionParts;
+                const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
+                const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
+                const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
+                std::vector<glm::dvec3> lowerPoints, upperPoints;
+                for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
+                for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
+                triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+                                            static_cast<std::uint32_t>(upper.size()));
+                for (Triangle& t : triangles) {
+                    for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
+                    if (flip) std::swap(t[1], t[2]);
+                }
+            }
+            mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
         }
     }
     return result;

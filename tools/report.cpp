@@ -94,6 +94,7 @@ json levelReport(const LevelMesh& level, bool topology)
         {"ambiguous_contours", level.ambiguousContours},
         {"ambiguous_sectors", level.ambiguousSectors},
         {"interpolation_fallbacks", level.interpolationFallbacks},
+        {"area_junction_parts", level.areaJunctionParts},
     };
     if (topology) {
         // The level's own Euler characteristic, against the events'.

@@ -166,6 +166,16 @@ struct LoopView {
 
 LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center);
 
+/// The view of a polygon that no walk traced (a junction's part, graph.h: arcs of a contour
+/// closed through its hub), given in contour order, counterclockwise around `center`.
+LoopView viewOfPolygon(std::vector<glm::dvec2> polygon, const glm::dvec2& center);
+
+/// Whether a point lies inside a polygon, at least a quarter pixel from its edges.
+bool liesWellInside(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);
+
+/// Distance from a point to a closed polygon.
+double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);
+
 /// Where `directions` evenly spaced rays from the view's centre (angles 2*pi*k / directions) meet
 /// the loop's polygon first and last: distances from the centre, pixel units. The loop's shape as
 /// such rays see it, from the polygon alone (no root finding: far cheaper than castRays). Levels
@@ -182,6 +192,10 @@ RadialProfile radialProfile(const LoopView& view, int directions);
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
 Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);
+
+/// Casts `rays` against a polygon of the skeleton (viewOfPolygon): every crossing lies on the
+/// polygon itself (there is no field to refine it against). Empty if it does not wind once.
+Contour castPolygon(const LoopView& view, const RaySet& rays);
 
 /// Refinement (paper §4.3): the same loop's contour with more rays, `rays` (which must hold every
 /// ray of the coarse contour), or by default the next level's. Only the new rays are cast; the

@@ -69,6 +69,8 @@ struct LevelMesh {
     long long ambiguousSectors = 0; // sectors with more than one F edge, over all contours
     long long crossings = 0;       // vertices on contours (the rest are end-cap apexes)
     int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
+    int areaJunctionParts = 0;     // junction parts tiled by the minimum-area tiler: their polygon
+                                   // gave no contour (it winds around no point inside it)
 };
 
 /// What the level-independent pass found; degenerate geometry is counted here, not thrown.
@@ -223,6 +225,24 @@ private:
                                                    // moved onto the surface like the hub (a chord
                                                    // never joins two cuts directly, so no cap of
                                                    // the same contour can share its edge)
+        // Nodes: the junction's own vertices, the same at every level: the cuts (node k), the
+        // hole's cuts (node n + k), then the hub or the chord middles.
+        std::vector<glm::dvec2> nodePoints;        // in-plane
+        std::vector<glm::dvec3> nodeIndex;         // index space
+        /// Partner k's side of the junction as one polygon, a composite contour (TOPOLOGY.md):
+        /// its arcs of `single` (and of `inner`) closed through the hub or the chords' middles,
+        /// counterclockwise. Cast with the partner's rays at every level, it is tiled to the
+        /// partner by the same integer band as any two contours.
+        struct Part {
+            struct Corner {
+                int member = -1; // 0: a point of `single`'s polygon, 1: of `inner`'s; -1: neither
+                int point = -1;  // its index in that polygon
+                int node = -1;   // the node it is, or -1
+            };
+            std::vector<Corner> corners;
+            LoopView view;   // from a point inside; usable when it winds once around it
+        };
+        std::vector<Part> parts;                   // per partner
     };
 
     // The stages of the constructor, in order.
@@ -235,6 +255,8 @@ private:
     void resolveEvents();
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     bool splitJunction(Junction& junction) const;
+    /// The junction's nodes and its parts, from its arcs (see Junction::Part).
+    void composeParts(Junction& junction) const;
     void followCentres();
     /// The central point of `loop` that follows `before`'s along their tube (see followCentres).
     static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
