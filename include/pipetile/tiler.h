@@ -7,15 +7,12 @@
 
 #include <pipetile/contour.h>
 #include <pipetile/contour_tree.h>
+#include <pipetile/mesh.h>
 
-#include <array>
 #include <cstdint>
 #include <vector>
 
 namespace pipetile {
-
-/// Three vertex ids, counterclockwise seen from outside.
-using Triangle = std::array<std::uint32_t, 3>;
 
 /// Tiles the band between contour A (slice k, m crossings) and contour B (slice k+1, n crossings)
 /// by traversing their contour trees together (paper §4.2): level-1 nodes x meet, so their F
