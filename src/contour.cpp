@@ -26,11 +26,6 @@ const glm::ivec2 kStep[4] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
 // the pixel on its right is C + kLeft[(d + 3) % 4].
 const glm::ivec2 kLeft[4] = {{0, 0}, {-1, 0}, {-1, -1}, {0, -1}};
 
-void check(bool condition, const char* what)
-{
-    if (!condition) throw std::logic_error(std::string("pipetile internal invariant broken: ") + what);
-}
-
 glm::dvec2 cornerPoint(const glm::ivec2& c) { return {c.x - 0.5, c.y - 0.5}; }
 
 // Angle of (x, y) around the origin in turns, in [0, 1), to within 2e-12 turn: rays only need
@@ -152,7 +147,7 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             // where it ends ahead, turn left around it.
             if (aheadRight && (aheadLeft || saddleJoins(c))) d = (d + 3) & 3;
             else if (!aheadLeft) d = (d + 1) & 3;
-            check(loop.corners.size() <= maxCorners, "boundary walk did not close");
+            PIPETILE_ASSERT(loop.corners.size() <= maxCorners, "boundary walk did not close");
         } while (!(c == start && d == 1));
         finishLoop(loop);
         expected = loop.corners.size() + loop.corners.size() / 8;
@@ -962,14 +957,14 @@ EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)
 {
     const bool fromInOut = from.kind == CrossingKind::InOut, toInOut = to.kind == CrossingKind::InOut;
     if (fromInOut && toInOut) {
-        check(to.ray == (from.ray + 1) % rayCount, "F edge must join ray x to ray x+1");
+        PIPETILE_ASSERT(to.ray == (from.ray + 1) % rayCount, "F edge must join ray x to ray x+1");
         return EdgeType::Forward;
     }
     if (!fromInOut && !toInOut) {
-        check(from.ray == (to.ray + 1) % rayCount, "B edge must join ray x+1 to ray x");
+        PIPETILE_ASSERT(from.ray == (to.ray + 1) % rayCount, "B edge must join ray x+1 to ray x");
         return EdgeType::Backward;
     }
-    check(from.ray == to.ray, "U and D edges join two crossings of one ray");
+    PIPETILE_ASSERT(from.ray == to.ray, "U and D edges join two crossings of one ray");
     const bool up = to.crackT > from.crackT;
     if (fromInOut) return up ? EdgeType::UpIn : EdgeType::DownIn;
     return up ? EdgeType::UpOut : EdgeType::DownOut;

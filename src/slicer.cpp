@@ -32,8 +32,9 @@ glm::dvec3 planeToIndex(int axis, const glm::dvec2& uv, double w)
 SlicePlan planSlices(const Volume& volume, const SliceOptions& options)
 {
     if (!std::isfinite(options.spacingVoxels) || options.spacingVoxels < 0.1 || options.spacingVoxels > 1000.0)
-        throw UsageError("--spacing must be between 0.1 and 1000 voxels (got " +
-                         std::to_string(options.spacingVoxels) + ")");
+        throw UsageError("the slice spacing must be between 0.1 and 1000 voxels (got " +
+                             std::to_string(options.spacingVoxels) + ")",
+                         {Setting::Spacing});
     const glm::ivec3 lo = volume.bboxMin(), hi = volume.bboxMax();
     SlicePlan plan;
     if (options.axis == Axis::Auto) {

@@ -1,4 +1,5 @@
 #include <pipetile/contour_tree.h>
+#include <pipetile/error.h>
 #include <pipetile/tiler.h>
 
 #include <gtest/gtest.h>
@@ -70,7 +71,7 @@ TEST(ContourTree, AmbiguousSectorHasBothParsesOfTheWorkedExample)
 TEST(ContourTree, RefusesAStringThatDoesNotWindOnce)
 {
     // #F - #B = 0: the centre lies outside the loop.
-    EXPECT_THROW(ContourTree(parse("F F B B")), std::invalid_argument);
+    EXPECT_THROW(ContourTree(parse("F F B B")), UsageError);
 }
 
 TEST(ContourTree, KeysIncreaseAlongTheWalkFromTheStart)
