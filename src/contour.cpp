@@ -4,6 +4,8 @@
 // boundary to order them, and edge types from integers alone.
 
 #include <pipetile/contour.h>
+#include <pipetile/detail/field_image.h>
+#include <pipetile/detail/pixel_window.h>
 #include <pipetile/error.h>
 #include <pipetile/slicer.h>
 
@@ -649,6 +651,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
 
 } // namespace
 
+namespace detail {
+
 double FieldImage::value(int u, int v) const
 {
     const int x = u - origin.x, y = v - origin.y;
@@ -674,13 +678,15 @@ double FieldImage::sample(const glm::dvec2& uv) const
     return (1.0 - t) * (f[0] + s * (f[1] - f[0])) + t * (f[2] + s * (f[3] - f[2]));
 }
 
+} // namespace detail
+
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
 {
     const SlicePlan& plan = plane.plan();
     const std::vector<glm::ivec2> seeds = plane.eastCracks();
     // The walk reads the plane's image in place; the plane's inside() and value() serve the
     // corners at its edges and planes without one.
-    const SlicePlane::Window window = plane.window();
+    const detail::PixelWindow window = detail::pixelWindow(plane);
     DirectPixels direct;
     if (window.values) {
         direct = {window.values, window.min, window.width,
@@ -692,7 +698,7 @@ std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
                       plan.pixelMin, plan.pixelMax + 1);
 }
 
-std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
+std::vector<BoundaryLoop> detail::traceBoundaries(const FieldImage& image)
 {
     std::vector<glm::ivec2> seeds;
     for (int v = image.origin.y; v < image.origin.y + image.height; ++v)
@@ -792,12 +798,7 @@ Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& pla
     return castRaysImpl(view, rays, plane);
 }
 
-Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane)
-{
-    return castRays(viewFrom(loop, center), rays, plane);
-}
-
-Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
+Contour detail::castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
 {
     return castRaysImpl(viewFrom(loop, center), rays, image);
 }
@@ -813,18 +814,14 @@ Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePl
     return refineContour(coarse, view, coarse.rays.next(), plane);
 }
 
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane)
-{
-    return refineContour(coarse, viewFrom(loop, coarse.center), plane);
-}
-
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays, const FieldImage& image)
+Contour detail::refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays,
+                              const FieldImage& image)
 {
     if (coarse.crossings.empty()) return coarse;
     return castRaysImpl(viewFrom(loop, coarse.center), rays, image, &coarse);
 }
 
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
+Contour detail::refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
 {
     return refineContour(coarse, loop, coarse.rays.next(), image);
 }

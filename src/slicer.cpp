@@ -1,7 +1,9 @@
 // pipetile — slicer: slicing axis, slice positions, and sampling the grid on one slice plane.
 
-#include <pipetile/error.h>
 #include <pipetile/slicer.h>
+
+#include <pipetile/detail/pixel_window.h>
+#include <pipetile/error.h>
 #include <pipetile/volume_grid.h>
 
 #include <glm/common.hpp>
@@ -363,9 +365,10 @@ bool SlicePlane::saddleJoins(const glm::ivec2& corner) const
     return saddleJoinsInside(im.sign > 0.0, beside);
 }
 
-SlicePlane::Window SlicePlane::window() const
+detail::PixelWindow detail::pixelWindow(const SlicePlane& plane)
 {
-    return {mImpl->image.get(), mImpl->imageMin, mImpl->imageWidth, mImpl->imageHeight};
+    const SlicePlane::Impl& im = *plane.mImpl;
+    return {im.image.get(), im.imageMin, im.imageWidth, im.imageHeight};
 }
 
 std::vector<glm::ivec2> SlicePlane::eastCracks() const

@@ -1,3 +1,4 @@
+#include <pipetile/detail/field_image.h>
 #include <pipetile/contour.h>
 
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 #include <string>
 
 using namespace pipetile;
+using pipetile::detail::FieldImage;
 
 namespace {
 

@@ -1,3 +1,4 @@
+#include <pipetile/detail/field_image.h>
 #include <pipetile/contour_tree.h>
 #include <pipetile/error.h>
 #include <pipetile/tiler.h>
@@ -16,6 +17,7 @@
 #include <set>
 
 using namespace pipetile;
+using pipetile::detail::FieldImage;
 
 namespace {
 

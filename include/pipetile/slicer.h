@@ -18,6 +18,13 @@
 
 namespace pipetile {
 
+class SlicePlane;
+
+namespace detail {
+struct PixelWindow;                                 // detail/pixel_window.h
+PixelWindow pixelWindow(const SlicePlane& plane);   // the boundary walk's fast path
+} // namespace detail
+
 enum class Axis { X = 0, Y = 1, Z = 2, Auto = 3 };
 
 struct SliceOptions {
@@ -105,20 +112,11 @@ public:
     /// Pixels p inside whose neighbour p + (1, 0) is outside: every boundary loop has at least one
     /// such east-facing crack. Only the leaf nodes crossing the plane are scanned. Sorted (v, u).
     std::vector<glm::ivec2> eastCracks() const;
-    /// The pixels eastCracks() read, row-major from `min`, for the boundary walk to read in place
-    /// (value(u, v) is the same number); empty before eastCracks() or where the plane's leaves lie
-    /// too far apart for one image.
-    struct Window {
-        const double* values = nullptr;
-        glm::ivec2 min{0};
-        int width = 0, height = 0;
-    };
-    Window window() const;
-
     double w() const;
     const SlicePlan& plan() const;
 
 private:
+    friend detail::PixelWindow detail::pixelWindow(const SlicePlane& plane);
     struct Impl;
     std::unique_ptr<Impl> mImpl;
 };
