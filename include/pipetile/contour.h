@@ -162,7 +162,8 @@ struct RadialProfile {
 };
 RadialProfile radialProfile(const LoopView& view, int directions);
 
-/// Casts `rays` from `center` against the loop and classifies the edges. The loop's points fix
+/// Casts `rays` from `center` (pixels) against the loop and classifies the edges. `plane` is only
+/// read during the call. Throws InternalError only (a broken invariant: a bug). The loop's points fix
 /// which crossings exist and their order; each position is then refined to the root of the field
 /// interpolated along the ray, between the neighbouring crossings of the same ray.
 /// Returns an empty contour if the loop does not wind once around the centre.

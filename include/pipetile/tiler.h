@@ -28,6 +28,8 @@ namespace pipetile {
 std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b);
 
 /// The same for contours given by their edge strings alone, crossing 0 on ray 0 (tests, tools).
+/// @throw UsageError if a string is empty or does not wind once around its centre (#F - #B
+///        must be positive: the ray count).
 std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector<EdgeType>& b);
 
 /// The integer description of a contour given by its edge string, crossing 0 on ray 0: rays from
