@@ -10,6 +10,7 @@
 //   byte 3      origin: low nibble - 8 = u, high nibble - 8 = v
 //   bytes 4...  one byte per pixel, row-major; graded value = int8(byte) / 8 (negative inside)
 
+#include <pipetile/detail/field_image.h>
 #include <pipetile/contour.h>
 #include <pipetile/contour_tree.h>
 #include <pipetile/tiler.h>
@@ -25,6 +26,7 @@
 #include <vector>
 
 using namespace pipetile;
+using pipetile::detail::FieldImage;
 
 namespace {
 

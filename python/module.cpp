@@ -161,9 +161,9 @@ void bindErrors(py::module_& m)
         try {
             if (thrown) std::rethrow_exception(thrown);
         } catch (const UsageError& e) {
-            usageError(e.what());
+            usageError(withSettings(e, "", "=").c_str());
         } catch (const Error& e) {
-            error(e.what());
+            error(withSettings(e, "", "=").c_str());
         }
     });
 }

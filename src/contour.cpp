@@ -4,6 +4,8 @@
 // boundary to order them, and edge types from integers alone.
 
 #include <pipetile/contour.h>
+#include <pipetile/detail/field_image.h>
+#include <pipetile/detail/pixel_window.h>
 #include <pipetile/error.h>
 #include <pipetile/slicer.h>
 
@@ -25,11 +27,6 @@ const glm::ivec2 kStep[4] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
 // The pixel on the left of the unit crack that leaves corner C in direction d is C + kLeft[d];
 // the pixel on its right is C + kLeft[(d + 3) % 4].
 const glm::ivec2 kLeft[4] = {{0, 0}, {-1, 0}, {-1, -1}, {0, -1}};
-
-void check(bool condition, const char* what)
-{
-    if (!condition) throw std::logic_error(std::string("pipetile internal invariant broken: ") + what);
-}
 
 glm::dvec2 cornerPoint(const glm::ivec2& c) { return {c.x - 0.5, c.y - 0.5}; }
 
@@ -152,7 +149,7 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             // where it ends ahead, turn left around it.
             if (aheadRight && (aheadLeft || saddleJoins(c))) d = (d + 3) & 3;
             else if (!aheadLeft) d = (d + 1) & 3;
-            check(loop.corners.size() <= maxCorners, "boundary walk did not close");
+            PIPETILE_ASSERT(loop.corners.size() <= maxCorners, "boundary walk did not close");
         } while (!(c == start && d == 1));
         finishLoop(loop);
         expected = loop.corners.size() + loop.corners.size() / 8;
@@ -659,6 +656,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
 
 } // namespace
 
+namespace detail {
+
 double FieldImage::value(int u, int v) const
 {
     const int x = u - origin.x, y = v - origin.y;
@@ -684,13 +683,15 @@ double FieldImage::sample(const glm::dvec2& uv) const
     return (1.0 - t) * (f[0] + s * (f[1] - f[0])) + t * (f[2] + s * (f[3] - f[2]));
 }
 
+} // namespace detail
+
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
 {
     const SlicePlan& plan = plane.plan();
     const std::vector<glm::ivec2> seeds = plane.eastCracks();
     // The walk reads the plane's image in place; the plane's inside() and value() serve the
     // corners at its edges and planes without one.
-    const SlicePlane::Window window = plane.window();
+    const detail::PixelWindow window = detail::pixelWindow(plane);
     DirectPixels direct;
     if (window.values) {
         direct = {window.values, window.min, window.width,
@@ -702,7 +703,7 @@ std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
                       plan.pixelMin, plan.pixelMax + 1);
 }
 
-std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image)
+std::vector<BoundaryLoop> detail::traceBoundaries(const FieldImage& image)
 {
     std::vector<glm::ivec2> seeds;
     for (int v = image.origin.y; v < image.origin.y + image.height; ++v)
@@ -832,12 +833,7 @@ Contour castPolygon(const LoopView& view, const RaySet& rays)
     return contour;
 }
 
-Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane)
-{
-    return castRays(viewFrom(loop, center), rays, plane);
-}
-
-Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
+Contour detail::castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
 {
     return castRaysImpl(viewFrom(loop, center), rays, image);
 }
@@ -853,18 +849,14 @@ Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePl
     return refineContour(coarse, view, coarse.rays.next(), plane);
 }
 
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane)
-{
-    return refineContour(coarse, viewFrom(loop, coarse.center), plane);
-}
-
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays, const FieldImage& image)
+Contour detail::refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays,
+                              const FieldImage& image)
 {
     if (coarse.crossings.empty()) return coarse;
     return castRaysImpl(viewFrom(loop, coarse.center), rays, image, &coarse);
 }
 
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
+Contour detail::refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image)
 {
     return refineContour(coarse, loop, coarse.rays.next(), image);
 }
@@ -997,14 +989,14 @@ EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)
 {
     const bool fromInOut = from.kind == CrossingKind::InOut, toInOut = to.kind == CrossingKind::InOut;
     if (fromInOut && toInOut) {
-        check(to.ray == (from.ray + 1) % rayCount, "F edge must join ray x to ray x+1");
+        PIPETILE_ASSERT(to.ray == (from.ray + 1) % rayCount, "F edge must join ray x to ray x+1");
         return EdgeType::Forward;
     }
     if (!fromInOut && !toInOut) {
-        check(from.ray == (to.ray + 1) % rayCount, "B edge must join ray x+1 to ray x");
+        PIPETILE_ASSERT(from.ray == (to.ray + 1) % rayCount, "B edge must join ray x+1 to ray x");
         return EdgeType::Backward;
     }
-    check(from.ray == to.ray, "U and D edges join two crossings of one ray");
+    PIPETILE_ASSERT(from.ray == to.ray, "U and D edges join two crossings of one ray");
     const bool up = to.crackT > from.crackT;
     if (fromInOut) return up ? EdgeType::UpIn : EdgeType::DownIn;
     return up ? EdgeType::UpOut : EdgeType::DownOut;

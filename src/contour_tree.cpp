@@ -2,9 +2,9 @@
 // Integer-only translation unit (see CMakeLists.txt): no floating point may appear here.
 
 #include <pipetile/contour_tree.h>
+#include <pipetile/error.h>
 
 #include <algorithm>
-#include <stdexcept>
 
 namespace pipetile {
 
@@ -56,7 +56,7 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     for (EdgeType t : c.edges) winding += t == EdgeType::Forward ? 1 : t == EdgeType::Backward ? -1 : 0;
     if (m == 0 || c.rays < 1 || winding != c.rays || static_cast<int>(c.ray.size()) != m ||
         (!c.depth.empty() && static_cast<int>(c.depth.size()) != m))
-        throw std::invalid_argument("ContourTree: the contour does not wind once around its centre (#F - #B != n)");
+        throw UsageError("ContourTree: the contour does not wind once around its centre (#F - #B != n)");
 
     // Rules [1] / [1']: one F edge per sector, in walk order, each crossing its own sector level.
     // Count the sectors the walk crosses from F_0 (F +1, B -1): it ends one turn on, at n. A
@@ -91,7 +91,7 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
         return best < 0 ? -1 : candidate(x, best);
     };
     for (int x = 0; x < c.rays; ++x) {
-        if (candidateCount(x) == 0) throw std::logic_error("ContourTree: a sector without an F edge (internal invariant broken)");
+        PIPETILE_ASSERT(candidateCount(x) > 0, "ContourTree: a sector without an F edge");
         mAmbiguous += candidateCount(x) > 1 ? 1 : 0;
     }
     mStart = preferred(0, [](int) { return true; });
@@ -192,7 +192,7 @@ int ContourTree::parseItems(const ContourString& c, int from, int to, std::vecto
             level += u == EdgeType::Forward ? 1 : u == EdgeType::Backward ? -1 : 0;
             if (level == 0) { close = j; break; }
         }
-        if (close < 0) throw std::logic_error("ContourTree: unbalanced excursion (internal invariant broken)");
+        PIPETILE_ASSERT(close >= 0, "ContourTree: unbalanced excursion");
         std::vector<int> inner;
         const int open = leaf(k);
         parseItems(c, k + 1, close, inner);

@@ -115,7 +115,7 @@ void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t 
             for (std::size_t i = 1; i + 1 < chain.size(); ++i) triangles.push_back({chain[i], chain[i + 1], c});
             return;
         }
-    throw std::logic_error("pipetile internal invariant broken: a contour edge lies in no triangle of its band");
+    PIPETILE_ASSERT(false, "a contour edge lies in no triangle of its band");
 }
 
 // For each vertex of `coarse`, a vertex of `fine` at the same position, bit for bit; each vertex of
@@ -138,8 +138,8 @@ std::vector<std::uint32_t> matchVertices(const std::vector<glm::dvec3>& coarse, 
         auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(key, std::uint32_t(0)));
         while (it != sorted.end() && it->first == key && taken[it - sorted.begin()]) ++it;
         if (it == sorted.end() || it->first != key)
-            throw std::logic_error("pipetile internal invariant broken: vertex " + std::to_string(v) + " of level " +
-                                   std::to_string(level) + " is not a vertex of level " + std::to_string(level + 1));
+            throw InternalError("internal invariant broken: vertex " + std::to_string(v) + " of level " +
+                                std::to_string(level) + " is not a vertex of level " + std::to_string(level + 1));
         taken[it - sorted.begin()] = true;
         match[v] = it->second;
     }
@@ -185,18 +185,21 @@ NestedLevels nestLevels(const std::vector<LevelMesh>& levels)
 void checkMeshOptions(const MeshOptions& options)
 {
     if (options.baseRays < 3 || options.baseRays > 4096)
-        throw UsageError("--rays must be between 3 and 4096 (got " + std::to_string(options.baseRays) +
-                         "); with fewer than 3 rays forward and backward edges cannot be told apart");
+        throw UsageError("the base rays must be between 3 and 4096 (got " + std::to_string(options.baseRays) +
+                             "); with fewer than 3 rays forward and backward edges cannot be told apart",
+                         {Setting::Rays});
     if (options.levels < 1 || options.levels > 16)
-        throw UsageError("--levels must be between 1 and 16 (got " + std::to_string(options.levels) + ")");
+        throw UsageError("the levels must be between 1 and 16 (got " + std::to_string(options.levels) + ")",
+                         {Setting::Levels});
     const long long finest = static_cast<long long>(options.baseRays) << (options.levels - 1);
     if (finest > 65536)
-        throw UsageError("--rays " + std::to_string(options.baseRays) + " with --levels " +
-                         std::to_string(options.levels) + " asks for " + std::to_string(finest) +
-                         " rays per contour at the top level; the limit is 65536: lower --rays or --levels");
+        throw UsageError(std::to_string(options.baseRays) + " base rays with " + std::to_string(options.levels) +
+                             " levels ask for " + std::to_string(finest) +
+                             " rays per contour at the top level; the limit is 65536: lower the rays or the levels",
+                         {Setting::Rays, Setting::Levels});
     if (!(options.minContourArea >= 0.0) || !std::isfinite(options.minContourArea))
         throw UsageError("the minimum contour area must be a finite number >= 0");
-    if (options.threads < 0) throw UsageError("--threads must be 0 (all cores) or more");
+    if (options.threads < 0) throw UsageError("the threads must be 0 (all cores) or more", {Setting::Threads});
 }
 
 Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
@@ -229,9 +232,12 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
                              static_cast<double>(static_cast<long long>(options.baseRays) << (options.levels - 1));
     constexpr double kBytesPerCrossing = 100.0, kBudget = 8.0 * 1024 * 1024 * 1024;
     if (crossings * kBytesPerCrossing > kBudget)
-        throw UsageError("--rays " + std::to_string(options.baseRays) + " with --levels " + std::to_string(options.levels) +
-                         " would need about " + std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
-                         " GiB for the finest level (" + std::to_string(mStats.contours) + " contours); lower --levels");
+        throw UsageError(std::to_string(options.baseRays) + " base rays with " + std::to_string(options.levels) +
+                             " levels would need about " +
+                             std::to_string(static_cast<long long>(crossings * kBytesPerCrossing / (1 << 30))) +
+                             " GiB for the finest level (" + std::to_string(mStats.contours) +
+                             " contours); lower the levels",
+                         {Setting::Levels});
     mStats.seconds = secondsSince(start);
 }
 
@@ -274,7 +280,8 @@ void Reconstruction::traceSlices()
     if (mStats.contours == 0)
         throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() + "': no slice crosses the surface at iso " +
                     std::to_string(mVolume.iso()) + " (" + std::to_string(sliceCount) +
-                    " slices); the object is thinner than the slice spacing: lower --spacing");
+                        " slices); the object is thinner than the slice spacing: lower the spacing",
+                    {Setting::Spacing});
 }
 
 void Reconstruction::correspond()
@@ -656,7 +663,8 @@ void Reconstruction::closeEnds()
     mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
     if (mTubes.empty())
         throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
-                    "': every cross-section lies in a single slice and cannot be closed; lower --spacing");
+                        "': every cross-section lies in a single slice and cannot be closed; lower the spacing",
+                    {Setting::Spacing});
     // Hollow pipes: where a hole tube ends in the same plane as the outer tube around it, the two
     // end contours are joined by an annulus, the pipe's rim, instead of closing each wall by a
     // cap of its own (two caps over the hollow, far from any surface). Nearest hole first.
@@ -1023,10 +1031,10 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             }
             const bool startsTube = k == 0, endsTube = k + 1 == tube.members.size();
             const Contour& c = contours[s][l];
-            if (c.crossings.empty() || countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != c.rays.count() ||
-                c.rays.count() != contours[tube.members[0].first][tube.members[0].second].rays.count())
-                throw std::logic_error("pipetile internal invariant broken: a contour does not wind once (#F - #B != n), or "
-                                       "differs in rays from its tube");
+            PIPETILE_ASSERT(!c.crossings.empty() &&
+                                countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) == c.rays.count() &&
+                                c.rays.count() == contours[tube.members[0].first][tube.members[0].second].rays.count(),
+                            "a contour does not wind once (#F - #B != n), or differs in rays from its tube");
             if (startsTube) result.addedRays += c.rays.count() - rays.count();
             ++result.contours;
             result.ambiguousContours += isUnambiguous(c) ? 0 : 1;

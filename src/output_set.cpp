@@ -181,7 +181,7 @@ Target& OutputSet::Impl::find(const std::string& path)
 {
     for (Target& t : targets)
         if (t.path == path) return t;
-    throw std::logic_error("OutputSet: " + inQuotes(path) + " is not one of the set's targets");
+    throw UsageError("OutputSet: " + inQuotes(path) + " is not one of the set's targets");
 }
 
 void OutputSet::Impl::lockAll(const std::string& holder)
@@ -374,7 +374,7 @@ void OutputSet::commit()
     std::lock_guard<std::mutex> guard(registryMutex());
     if (mImpl->state != State::Open) throw Error("outputs not written: the run was interrupted");
     for (const Target& t : mImpl->targets)
-        if (!t.written) throw std::logic_error("OutputSet: " + inQuotes(t.path) + " was not written before commit");
+        if (!t.written) throw UsageError("OutputSet: " + inQuotes(t.path) + " was not written before commit");
     std::size_t done = 0;
     try {
         for (; done < mImpl->targets.size(); ++done) mImpl->replace(mImpl->targets[done]);

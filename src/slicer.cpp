@@ -1,7 +1,9 @@
 // pipetile — slicer: slicing axis, slice positions, and sampling the grid on one slice plane.
 
-#include <pipetile/error.h>
 #include <pipetile/slicer.h>
+
+#include <pipetile/detail/pixel_window.h>
+#include <pipetile/error.h>
 #include <pipetile/volume_grid.h>
 
 #include <glm/common.hpp>
@@ -32,8 +34,9 @@ glm::dvec3 planeToIndex(int axis, const glm::dvec2& uv, double w)
 SlicePlan planSlices(const Volume& volume, const SliceOptions& options)
 {
     if (!std::isfinite(options.spacingVoxels) || options.spacingVoxels < 0.1 || options.spacingVoxels > 1000.0)
-        throw UsageError("--spacing must be between 0.1 and 1000 voxels (got " +
-                         std::to_string(options.spacingVoxels) + ")");
+        throw UsageError("the slice spacing must be between 0.1 and 1000 voxels (got " +
+                             std::to_string(options.spacingVoxels) + ")",
+                         {Setting::Spacing});
     const glm::ivec3 lo = volume.bboxMin(), hi = volume.bboxMax();
     SlicePlan plan;
     if (options.axis == Axis::Auto) {
@@ -362,9 +365,10 @@ bool SlicePlane::saddleJoins(const glm::ivec2& corner) const
     return saddleJoinsInside(im.sign > 0.0, beside);
 }
 
-SlicePlane::Window SlicePlane::window() const
+detail::PixelWindow detail::pixelWindow(const SlicePlane& plane)
 {
-    return {mImpl->image.get(), mImpl->imageMin, mImpl->imageWidth, mImpl->imageHeight};
+    const SlicePlane::Impl& im = *plane.mImpl;
+    return {im.image.get(), im.imageMin, im.imageWidth, im.imageHeight};
 }
 
 std::vector<glm::ivec2> SlicePlane::eastCracks() const

@@ -2,8 +2,8 @@
 // Integer-only translation unit (see tiler.h): no floating point may appear here.
 
 #include <pipetile/tiler.h>
+#include <pipetile/error.h>
 
-#include <stdexcept>
 
 namespace pipetile {
 
@@ -51,7 +51,7 @@ ContourString stringOfEdges(const std::vector<EdgeType>& edges)
 
 std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector<EdgeType>& b)
 {
-    if (a.empty() || b.empty()) throw std::invalid_argument("tileBand: both contours need crossings");
+    if (a.empty() || b.empty()) throw UsageError("tileBand: both contours need crossings");
     return tileBand(ContourTree(stringOfEdges(a)), ContourTree(stringOfEdges(b)));
 }
 

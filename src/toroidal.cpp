@@ -16,7 +16,6 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
-#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -150,7 +149,7 @@ private:
             // Both bounds only grow with y, so row y overlaps row y - 1 on [begin, prevEnd] and the
             // cost row can be updated in place.
             const std::uint32_t begin = rowBegin(s, lower, y), end = rowEnd(s, upper, y);
-            assert(begin <= prevEnd && prevEnd <= end);
+            PIPETILE_ASSERT(begin <= prevEnd && prevEnd <= end, "a search row does not overlap the row below it");
             double* cost = mCost.data(); // both indexed by x - s
             double* areaX = mAreaX.data();
             // The row's triangle areas first: independent of each other, so they pipeline, and
@@ -172,7 +171,7 @@ private:
         }
         if (filled > 0) mChoice[words] = word;
         const double total = mCost[mP];
-        assert(total < unreachable);
+        PIPETILE_ASSERT(total < unreachable, "no path between the bounding paths");
 
         // Walk the choices back from (s + p, q); rows are visited top down, so their offsets are
         // recovered by subtracting widths instead of being stored.
@@ -186,14 +185,14 @@ private:
             while (choice(offset + (x - begin))) --x;
             if (y == 0) break;
         }
-        assert(x == s);
+        PIPETILE_ASSERT(x == s, "the traced path does not end at its start");
         return total;
     }
 
     void bisect(const Path& lower, const Path& upper, std::size_t depth)
     {
         if (upper.start - lower.start < 2) return;
-        assert(depth < mStack.size());
+        PIPETILE_ASSERT(depth < mStack.size(), "bisection deeper than log2 of the starts");
         const std::uint32_t s = lower.start + (upper.start - lower.start) / 2;
         Path& middle = mStack[depth];
         const double cost = search(s, &lower, &upper, middle);
@@ -246,7 +245,7 @@ std::vector<Triangle> tileOptimal(const std::vector<glm::dvec3>& a, const std::v
         if (alongA) band.push_back({wrapX(x), m + wrapY(y + 1), m + wrapY(y)}); // advance B
         else band.push_back({wrapY(y), wrapY(y + 1), m + wrapX(x)});            // advance A
     }
-    assert(band.size() == static_cast<std::size_t>(m) + n);
+    PIPETILE_ASSERT(band.size() == static_cast<std::size_t>(m) + n, "an acceptable surface has m + n triangles");
     if (stats) stats->bytes = surface.bytes() + band.capacity() * sizeof(Triangle);
     return band;
 }

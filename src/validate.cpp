@@ -58,19 +58,23 @@ Topology checkTopology(const TriangleMesh& mesh)
 
     std::vector<std::uint32_t> parent(faceCount);
     std::iota(parent.begin(), parent.end(), 0u);
-    for (std::size_t i = 0; i < edges.size();) {
-        std::size_t j = i;
-        while (j < edges.size() && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
-        const std::size_t count = j - i;
+    // One group of equal sorted edges per mesh edge. Iterators, not indices: with indices gcc
+    // could not rule out a group of 2^60 edges and warned (-Waggressive-loop-optimizations).
+    for (auto first = edges.begin(); first != edges.end();) {
+        const DirectedEdge edge = *first;
+        const auto last = std::find_if(first, edges.end(), [&](const DirectedEdge& e) { return edge < e; });
+        const std::ptrdiff_t count = last - first;
         ++topo.edges;
-        if (count == 1) ++topo.boundaryEdges;
-        else if (count > 2) {
-            if (topo.nonManifoldEdges++ == 0) topo.firstNonManifoldEdge = {edges[i].lo, edges[i].hi};
+        if (count == 1) {
+            ++topo.boundaryEdges;
+        } else if (count > 2) {
+            if (topo.nonManifoldEdges++ == 0) topo.firstNonManifoldEdge = {edge.lo, edge.hi};
+        } else if (edge.forward == first[1].forward) {
+            ++topo.misorientedEdges;
         }
-        else if (edges[i].forward == edges[i + 1].forward) ++topo.misorientedEdges;
-        for (std::size_t k = i + 1; k < j; ++k)
-            parent[findRoot(parent, edges[k].face)] = findRoot(parent, edges[i].face);
-        i = j;
+        for (auto other = first + 1; other != last; ++other)
+            parent[findRoot(parent, other->face)] = findRoot(parent, edge.face);
+        first = last;
     }
     for (std::uint32_t f = 0; f < faceCount; ++f) topo.components += findRoot(parent, f) == f ? 1 : 0;
 

@@ -318,10 +318,12 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
         const auto it = std::find_if(grids.begin(), grids.end(), [&](const GridSummary& g) { return g.name == name; });
         if (it == grids.end())
             throw Error(inQuotes(path) + ": has no grid named " + inQuotes(name) + " (grids: " + listNames(grids) +
-                        "); pick one with --grid");
+                            "); pick one by name",
+                        {Setting::Grid});
         if (it->valueType != "float")
             throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " holds " + it->valueType +
-                        " values, not float; pick a scalar float grid with --grid (grids: " + listNames(grids) + ")");
+                            " values, not float; pick a scalar float grid by name (grids: " + listNames(grids) + ")",
+                        {Setting::Grid});
     }
 
     openvdb::GridBase::Ptr base;
@@ -336,7 +338,8 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
     }
     auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
     if (!grid)
-        throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " is not a float grid; pick another with --grid");
+        throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " is not a float grid; pick another by name",
+                    {Setting::Grid});
     return volumeFromGrid(grid, options, path);
 }
 
@@ -403,12 +406,14 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     impl->insideVoxels = countInside(*grid, impl->volumeClass, iso);
     if (!(lo < iso && iso < hi))
         throw Error(where + ": isovalue " + formatValue(iso) + " crosses nothing (values range from " +
-                    formatValue(lo) + " to " + formatValue(hi) + "); choose --iso inside that range");
+                        formatValue(lo) + " to " + formatValue(hi) + "); choose an isovalue inside that range",
+                    {Setting::Iso});
     const bool backgroundInside = impl->volumeClass == VolumeClass::LevelSet ? background < iso : background > iso;
     if (backgroundInside)
         throw Error(where + ": the background value " + formatValue(background) + " lies inside the surface at iso " +
                     formatValue(iso) + ", so the object is unbounded; check the grid class (" +
-                    toString(impl->volumeClass) + ") or choose another --iso");
+                        toString(impl->volumeClass) + ") or choose another isovalue",
+                    {Setting::Iso});
     return Volume(impl);
 }
 

@@ -54,7 +54,9 @@ nlohmann::json meshAndCheck(const TempDir& dir, const std::string& input, const 
     if (r.exitCode != 0) return {};
     const nlohmann::json j = readJson(report);
     EXPECT_EQ(j["levels"].size(), 4u);
-    if (expectedTubes >= 0) EXPECT_EQ(j["statistics"]["tubes"].get<int>(), expectedTubes);
+    if (expectedTubes >= 0) {
+        EXPECT_EQ(j["statistics"]["tubes"].get<int>(), expectedTubes);
+    }
     const Volume volume = input.empty() ? test::cachedSample("phantom") : readVolume(input);
     for (const auto& level : j["levels"]) {
         const int k = level["level"].get<int>();
@@ -749,7 +751,9 @@ TEST(Cli, BenchReportsTableOneRefinementAndPeers)
             EXPECT_GT(row[tiler]["bytes"].get<long long>(), 0);
             EXPECT_GE(row[tiler]["seconds"].get<double>(), 0.0);
         }
-        if (previous > 0) EXPECT_EQ(triangles, 2 * previous);
+        if (previous > 0) {
+            EXPECT_EQ(triangles, 2 * previous);
+        }
         previous = triangles;
     }
     ASSERT_EQ(j["refinement"].size(), 4u);
@@ -758,8 +762,9 @@ TEST(Cli, BenchReportsTableOneRefinementAndPeers)
     for (const auto& peer : j["peers"]) {
         methods.insert(peer["method"].get<std::string>());
         EXPECT_GT(peer["ratio_to_pipetile"].get<double>(), 0.0);
-        if (peer["method"].get<std::string>().find("meshopt") == std::string::npos)
+        if (peer["method"].get<std::string>().find("meshopt") == std::string::npos) {
             EXPECT_TRUE(peer["closed"].get<bool>()) << peer["method"];
+        }
     }
     for (const char* method : {"volumeToMesh uniform", "volumeToMesh adaptive 0.3", "volumeToMesh adaptive 0.6",
                                "volumeToMesh adaptive 0.9", "uniform + meshopt_simplify to L0"})
@@ -951,7 +956,9 @@ TEST(Cli, SignalsLeaveTheEarlierOutputsWhole)
         const int signal = k % 2 ? SIGTERM : SIGINT;
         SCOPED_TRACE("signal " + std::to_string(signal) + " at " + points[k].trigger + " + " + std::to_string(points[k].delay));
         test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + args + earlier.path("m.json") + "'");
-        if (!points[k].trigger.empty()) ASSERT_TRUE(test::waitForFile(earlier.path(points[k].trigger)));
+        if (!points[k].trigger.empty()) {
+            ASSERT_TRUE(test::waitForFile(earlier.path(points[k].trigger)));
+        }
         std::this_thread::sleep_for(std::chrono::duration<double>(points[k].delay));
         ::kill(run.pid(), signal);
         const test::CliResult r = run.wait();

@@ -1,3 +1,4 @@
+#include <pipetile/detail/field_image.h>
 #include <pipetile/contour.h>
 
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 #include <string>
 
 using namespace pipetile;
+using pipetile::detail::FieldImage;
 
 namespace {
 
@@ -321,8 +323,11 @@ TEST(Contour, AddedRaysSeeAFoldTheLevelsRaysHide)
     ASSERT_EQ(c1.crossings.size(), scratch1.crossings.size());
     EXPECT_EQ(sharedCrossings(c1, scratch1), c1.crossings.size()); // refining = casting all
     EXPECT_EQ(sharedCrossings(c0, c1), c0.crossings.size());      // the old rays' crossings stay
-    for (const Crossing& x : c1.crossings)
-        if (x.ray == 1) EXPECT_NEAR(std::atan2(x.point.y - center.y, x.point.x - center.x), M_PI / 8, 1e-12);
+    for (const Crossing& x : c1.crossings) {
+        if (x.ray == 1) {
+            EXPECT_NEAR(std::atan2(x.point.y - center.y, x.point.x - center.x), M_PI / 8, 1e-12);
+        }
+    }
     EXPECT_EQ(hiddenFolds(c1, view, 0.5), (std::vector<int>{1, 8})); // sector 7 is sector 8 now
     EXPECT_EQ(hiddenFolds(c1, view, 1.0), std::vector<int>{1});
     EXPECT_TRUE(hiddenFolds(c1, view, 2.0).empty());

@@ -1,4 +1,6 @@
+#include <pipetile/detail/field_image.h>
 #include <pipetile/contour_tree.h>
+#include <pipetile/error.h>
 #include <pipetile/tiler.h>
 
 #include <gtest/gtest.h>
@@ -15,6 +17,7 @@
 #include <set>
 
 using namespace pipetile;
+using pipetile::detail::FieldImage;
 
 namespace {
 
@@ -70,7 +73,7 @@ TEST(ContourTree, AmbiguousSectorHasBothParsesOfTheWorkedExample)
 TEST(ContourTree, RefusesAStringThatDoesNotWindOnce)
 {
     // #F - #B = 0: the centre lies outside the loop.
-    EXPECT_THROW(ContourTree(parse("F F B B")), std::invalid_argument);
+    EXPECT_THROW(ContourTree(parse("F F B B")), UsageError);
 }
 
 TEST(ContourTree, KeysIncreaseAlongTheWalkFromTheStart)

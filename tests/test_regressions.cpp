@@ -2,6 +2,7 @@
 // .ci/sanitize.sh). Each test names its reproducer; inputs the fuzzers found are kept in
 // fuzz/corpus_regressions/ and are replayed by .ci/fuzz.sh as well.
 
+#include <pipetile/detail/field_image.h>
 #include <pipetile/contour.h>
 #include <pipetile/contour_tree.h>
 #include <pipetile/error.h>
@@ -35,6 +36,7 @@
 #include <unistd.h>
 
 using namespace pipetile;
+using pipetile::detail::FieldImage;
 
 #include "test_util.h" // PIPETILE_TEST_ASAN
 

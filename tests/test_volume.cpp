@@ -202,3 +202,29 @@ TEST(Volume, HotVoxelsTooFewToBeAnObjectDoNotSetTheDefaultFogIso)
         EXPECT_EQ(v.maxValue(), hot > 0 ? 100.0 : 1.0);
     }
 }
+
+TEST(Volume, MessagesNameSettingsInWordsNotByFlag)
+{
+    // The library cannot know whether a command line, Python or a C++ program asked: it names the
+    // setting to change in Error::settings(), and each front end adds its own name for it.
+    try {
+        VolumeOptions options;
+        options.gridName = "density";
+        readVolume(realData("vmtk_aorta_ls.vdb"), options);
+        FAIL() << "the aorta has no grid named 'density'";
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("pick one by name"), std::string::npos) << message;
+        EXPECT_EQ(message.find("--"), std::string::npos) << message;
+        EXPECT_EQ(e.settings(), std::vector<Setting>{Setting::Grid});
+    }
+    try {
+        VolumeOptions options;
+        options.iso = 100.0; // the aorta's values run from -3.5 to 3.5
+        readVolume(realData("vmtk_aorta_ls.vdb"), options);
+        FAIL() << "isovalue 100 crosses nothing";
+    } catch (const Error& e) {
+        EXPECT_EQ(std::string(e.what()).find("--"), std::string::npos) << e.what();
+        EXPECT_EQ(e.settings(), std::vector<Setting>{Setting::Iso});
+    }
+}

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libglm-dev
+packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libglm-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libmeshoptimizer-dev
           libopenvdb-tools libboost-python-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
           python3-openvdb python3-meshio)
@@ -18,7 +18,9 @@ fi
 # ccache may serve any clone of the repository: paths relative to its root, build folder unhashed.
 export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true
 build=${PIPETILE_BUILD_DIR:-build}
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+# CI (the variable CI set, as CI services and .ci/run do) builds with warnings as errors.
+werror=OFF; [ -z "${CI:-}" ] || werror=ON
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DPIPETILE_WERROR=$werror >/dev/null
 case "${1:-demo}" in
   demo)
     cmake --build "$build" -j2 --target pipetile_cli

@@ -488,10 +488,13 @@ int main(int argc, char** argv)
         if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);
         if (info->parsed()) return runInfo(infoInput);
     } catch (const pipetile::UsageError& e) {
-        std::fprintf(stderr, "pipetile: usage error: %s\n", e.what());
+        std::fprintf(stderr, "pipetile: usage error: %s\n", pipetile::withSettings(e, "--", "").c_str());
         return 2;
+    } catch (const pipetile::InternalError& e) {
+        std::fprintf(stderr, "pipetile: internal error: %s (please report it with the input)\n", e.what());
+        return 1;
     } catch (const pipetile::Error& e) {
-        std::fprintf(stderr, "pipetile: error: %s\n", e.what());
+        std::fprintf(stderr, "pipetile: error: %s\n", pipetile::withSettings(e, "--", "").c_str());
         return 1;
     } catch (const std::bad_alloc&) {
         return outOfMemoryExit();

@@ -17,7 +17,8 @@ namespace pipetile {
 /// plane in `direction` (+1 or -1), a quarter voxel at a time up to `reach` voxels, until the
 /// field leaves the region, then bisects. The region is the inside (`sign` +1) or, for a hole,
 /// the outside (`sign` -1). Returns false, leaving `w` alone, if the point is not in the region
-/// on the plane or the region goes on past `reach`.
+/// on the plane or the region goes on past `reach`. `point` is in the plane's pixels, `reach` in
+/// voxels along the axis, and `w` (out) an index coordinate. Throws nothing.
 bool findApex(const SlicePlane& plane, const glm::dvec2& point, double direction, double reach, double& w,
               double sign = 1.0);
 

@@ -14,19 +14,6 @@ namespace pipetile {
 
 class SlicePlane;
 
-/// A signed field on a small pixel image (negative inside), for hand-made contours in tests and
-/// fuzzing. Pixels outside the image read as +1 (outside).
-struct FieldImage {
-    glm::ivec2 origin{0};       // (u, v) of the first pixel
-    int width = 0, height = 0;
-    std::vector<double> values; // row-major, width * height
-
-    double value(int u, int v) const;
-    bool inside(int u, int v) const { return value(u, v) < 0.0; }
-    double sample(const glm::dvec2& uv) const; // bilinear
-    void cell(int u, int v, double values[4]) const; // (u, v), (u + 1, v), (u, v + 1), (u + 1, v + 1)
-};
-
 /// The crack boundary of one connected set of inside pixels, walked with the inside on the left
 /// (the paper's chain code, modified to follow pixel borders). Corner (i, j) of the lattice is the
 /// point (i - 0.5, j - 0.5), the lower-left corner of pixel (i, j). Inside pixels are 8-connected.
@@ -121,9 +108,9 @@ struct Contour {
     int interpolationFallbacks = 0; // crossings placed on the crack: no sign change found nearby
 };
 
-/// Walks every boundary loop of the plane, seeded from its east-facing cracks.
+/// Walks every boundary loop of the plane, seeded from its east-facing cracks. The loops are in
+/// the plane's pixel units and own their data (the plane may go once this returns).
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane);
-std::vector<BoundaryLoop> traceBoundaries(const FieldImage& image);
 
 /// A point inside the region a loop encloses, and inside its marching-squares polygon (what rays
 /// are cut against, and off it): its centroid when that lies inside, else the enclosed pixel farthest from the
@@ -185,13 +172,12 @@ struct RadialProfile {
 };
 RadialProfile radialProfile(const LoopView& view, int directions);
 
-/// Casts `rays` from `center` against the loop and classifies the edges. The loop's points fix
+/// Casts `rays` from `center` (pixels) against the loop and classifies the edges. `plane` is only
+/// read during the call. Throws InternalError only (a broken invariant: a bug). The loop's points fix
 /// which crossings exist and their order; each position is then refined to the root of the field
 /// interpolated along the ray, between the neighbouring crossings of the same ray.
 /// Returns an empty contour if the loop does not wind once around the centre.
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane);
-Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const SlicePlane& plane);
-Contour castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image);
 
 /// Casts `rays` against a polygon of the skeleton (viewOfPolygon): every crossing lies on the
 /// polygon itself (there is no field to refine it against). Empty if it does not wind once.
@@ -203,9 +189,6 @@ Contour castPolygon(const LoopView& view, const RaySet& rays);
 /// casting every ray from scratch.
 Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane);
 Contour refineContour(const Contour& coarse, const LoopView& view, const RaySet& rays, const SlicePlane& plane);
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const SlicePlane& plane);
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const FieldImage& image);
-Contour refineContour(const Contour& coarse, const BoundaryLoop& loop, const RaySet& rays, const FieldImage& image);
 
 /// Folds that hide detail: where the walk leaves a ray and comes back to it without reaching the
 /// next ray, the contour joins the two crossings by a chord along the ray, and the boundary

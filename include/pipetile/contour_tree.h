@@ -78,7 +78,8 @@ class ContourTree {
 public:
     /// @param rank optional rule [1'] preference per sector: rank[x][k] for the k-th F edge of
     ///        sector x in walk order from crossing 0, lower is better; empty: outermost first.
-    /// @throw std::invalid_argument if the string does not wind once (#F - #B != n).
+    /// @throw UsageError if the string does not wind once (#F - #B != n), or its ray and depth
+    ///        lists do not match its edges in length.
     explicit ContourTree(const ContourString& contour, const std::vector<std::vector<int>>& rank = {});
 
     int rays() const { return mRays; }

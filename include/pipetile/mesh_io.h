@@ -1,11 +1,11 @@
-// pipetile — mesh_io: the triangle mesh type, and reading and writing mesh files.
+// pipetile — mesh_io: reading and writing mesh files (the mesh type is in mesh.h).
 // Reading (mesh_read.cpp) and writing are pipetile's own: every byte written goes through a checked
 // OutputSet stream, and positions keep double precision both ways (OpenMesh 9 reads and writes
 // float32 and ignores failed writes). The extension of a path picks the format.
 #pragma once
 
+#include <pipetile/mesh.h>
 #include <pipetile/output_set.h>
-#include <pipetile/tiler.h>
 
 #include <glm/common.hpp>
 #include <glm/vec3.hpp>
@@ -14,12 +14,6 @@
 #include <vector>
 
 namespace pipetile {
-
-/// A triangle mesh in world space, triangles counterclockwise seen from outside.
-struct TriangleMesh {
-    std::vector<glm::dvec3> vertices;
-    std::vector<Triangle> triangles; // ids into `vertices`
-};
 
 struct MeshWriteOptions {
     bool binary = true;               // PLY and STL in binary, else as text (OBJ and OFF are text)

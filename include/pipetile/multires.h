@@ -317,7 +317,7 @@ struct NestedLevels {
 /// them) into NestedLevels. Levels nest bit for bit (multires above), so each vertex of level L is
 /// found among level L+1's by its exact coordinates; equal positions are paired in order, which
 /// keeps every level the same mesh up to renumbering. Linear-logarithmic in the vertices.
-/// @throw std::logic_error if a vertex of a level is not a vertex of the next (an internal invariant).
+/// @throw InternalError if a vertex of a level is not a vertex of the next (an internal invariant).
 NestedLevels nestLevels(const std::vector<LevelMesh>& levels);
 
 /// Checks options against what the machine and the grid can support.

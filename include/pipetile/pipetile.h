@@ -5,6 +5,7 @@
 #include <pipetile/contour.h>
 #include <pipetile/error.h>
 #include <pipetile/graph.h>
+#include <pipetile/mesh.h>
 #include <pipetile/mesh_io.h>
 #include <pipetile/multires.h>
 #include <pipetile/output_set.h>

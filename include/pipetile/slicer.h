@@ -18,6 +18,13 @@
 
 namespace pipetile {
 
+class SlicePlane;
+
+namespace detail {
+struct PixelWindow;                                 // detail/pixel_window.h
+PixelWindow pixelWindow(const SlicePlane& plane);   // the boundary walk's fast path
+} // namespace detail
+
 enum class Axis { X = 0, Y = 1, Z = 2, Auto = 3 };
 
 struct SliceOptions {
@@ -74,12 +81,17 @@ bool contactJoins(bool levelSet, const InsideFn& inside, const glm::ivec2& a, co
 }
 
 /// The signed field (negative inside) on one slice plane. Stateful: it owns an OpenVDB accessor,
-/// so use one object per thread. Values between voxel planes are interpolated linearly along w,
+/// so use one object per thread. It keeps references to the Volume and the SlicePlan it was made
+/// from: both must outlive it. Coordinates are in-plane pixels (u, v), index space (see above);
+/// nothing here is in world units. Reads throw nothing. Values between voxel planes are interpolated linearly along w,
 /// except in the image eastCracks() reads: there both pixels of a contact across the two voxel
 /// planes that volumeToMesh joins (saddleJoinsInside) are made barely inside, a bridge that the
 /// interpolation, an average of inside and outside, may not show.
 class SlicePlane {
 public:
+    /// @param volume [in] the grid to read; must be valid() and outlive the plane
+    /// @param plan [in] from planSlices(volume, ...); must outlive the plane
+    /// @param w index coordinate along plan.axis, usually one of plan.positions (any finite value)
     SlicePlane(const Volume& volume, const SlicePlan& plan, double w);
     ~SlicePlane();
     SlicePlane(SlicePlane&&) noexcept;
@@ -105,20 +117,11 @@ public:
     /// Pixels p inside whose neighbour p + (1, 0) is outside: every boundary loop has at least one
     /// such east-facing crack. Only the leaf nodes crossing the plane are scanned. Sorted (v, u).
     std::vector<glm::ivec2> eastCracks() const;
-    /// The pixels eastCracks() read, row-major from `min`, for the boundary walk to read in place
-    /// (value(u, v) is the same number); empty before eastCracks() or where the plane's leaves lie
-    /// too far apart for one image.
-    struct Window {
-        const double* values = nullptr;
-        glm::ivec2 min{0};
-        int width = 0, height = 0;
-    };
-    Window window() const;
-
     double w() const;
     const SlicePlan& plan() const;
 
 private:
+    friend detail::PixelWindow detail::pixelWindow(const SlicePlane& plane);
     struct Impl;
     std::unique_ptr<Impl> mImpl;
 };

@@ -7,15 +7,12 @@
 
 #include <pipetile/contour.h>
 #include <pipetile/contour_tree.h>
+#include <pipetile/mesh.h>
 
-#include <array>
 #include <cstdint>
 #include <vector>
 
 namespace pipetile {
-
-/// Three vertex ids, counterclockwise seen from outside.
-using Triangle = std::array<std::uint32_t, 3>;
 
 /// Tiles the band between contour A (slice k, m crossings) and contour B (slice k+1, n crossings)
 /// by traversing their contour trees together (paper §4.2): level-1 nodes x meet, so their F
@@ -31,6 +28,8 @@ using Triangle = std::array<std::uint32_t, 3>;
 std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b);
 
 /// The same for contours given by their edge strings alone, crossing 0 on ray 0 (tests, tools).
+/// @throw UsageError if a string is empty or does not wind once around its centre (#F - #B
+///        must be positive: the ray count).
 std::vector<Triangle> tileBand(const std::vector<EdgeType>& a, const std::vector<EdgeType>& b);
 
 /// The integer description of a contour given by its edge string, crossing 0 on ray 0: rays from

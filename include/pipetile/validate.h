@@ -31,6 +31,8 @@ struct Topology {
     bool outward() const { return signedVolume > 0.0; }
 };
 
+/// Precondition: every triangle names vertices of the mesh (readMesh and the library's own meshes
+/// guarantee it; check a mesh from elsewhere first).
 Topology checkTopology(const TriangleMesh& mesh);
 
 /// Distance statistics, world units. Mean and RMS are weighted by the surface area each sample
@@ -50,6 +52,7 @@ struct TriangleQuality {
     long long degenerate = 0;      // area below 1e-12 of the longest edge squared
 };
 
+/// Precondition as checkTopology.
 TriangleQuality measureQuality(const TriangleMesh& mesh);
 
 /// Points on a mesh standing for its surface: every vertex (weight 0), and the centroids of a
@@ -93,11 +96,13 @@ struct ValidationOptions {
 /// indexes it, then validates any number of meshes against it.
 class Validator {
 public:
+    /// Keeps its own copy of the volume handle (the grid is shared), so `volume` need not outlive it.
     explicit Validator(const Volume& volume, const ValidationOptions& options = {});
     ~Validator();
     Validator(const Validator&) = delete;
     Validator& operator=(const Validator&) = delete;
 
+    /// The mesh must be in the volume's world space, and its triangles name its own vertices.
     /// @throw Error if the mesh has no triangles.
     Validation validate(const TriangleMesh& mesh) const;
 

@@ -42,7 +42,9 @@ struct GridSummary {
     glm::dvec3 voxelSize{1.0};
 };
 
-/// A scalar float grid chosen from a file, with its class and isovalue. Cheap to copy (shared).
+/// A scalar float grid chosen from a file, with its class and isovalue. Cheap to copy (shared): a
+/// copy keeps the grid alive, and copies may be read from any number of threads. A
+/// default-constructed Volume is empty (valid() false); every other member requires valid().
 /// The signed field `f = (value - iso)` for level sets and `f = (iso - value)` for fog volumes is
 /// negative inside the object for both classes; everything downstream works with that field.
 class Volume {
