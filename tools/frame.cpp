@@ -87,6 +87,14 @@ std::string levelPath(const std::string& output, int level)
     return name.string();
 }
 
+bool outputsExist(const std::string& output, const std::string& report, int levels)
+{
+    std::error_code ec;
+    for (int level = 0; level < levels; ++level)
+        if (!std::filesystem::exists(levelPath(output, level), ec)) return false;
+    return report.empty() || std::filesystem::exists(report, ec);
+}
+
 void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs)
 {
     for (std::size_t o = 0; o < outputs.size(); ++o) {

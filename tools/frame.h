@@ -22,6 +22,11 @@ std::string levelPath(const std::string& output, int level);
 /// @throw Error naming `path` if its folder does not exist; `what` names the file ("meshes").
 void checkWritableTarget(const std::string& path, const char* what);
 
+/// Whether every output of a run exists: the `levels` level files of `output` and the report
+/// (unless empty). A run's files are committed together, the report last, so a stopped run left
+/// either all of its own or none (--skip-existing).
+bool outputsExist(const std::string& output, const std::string& report, int levels);
+
 /// A line for the user that is not an error: `kind` is "note" or "warning"; the CLI prints
 /// "pipetile: <kind>: <text>" on stderr, the Python module collects them.
 using Notify = std::function<void(const char* kind, const std::string& text)>;

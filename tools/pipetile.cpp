@@ -43,6 +43,7 @@ using pipetile::tools::checkWritableTarget;
 using pipetile::tools::NamedPath;
 using pipetile::tools::noteIsovalue;
 using pipetile::tools::openOutputs;
+using pipetile::tools::outputsExist;
 using pipetile::tools::refuseClobbering;
 
 void printNote(const char* kind, const std::string& text) { std::fprintf(stderr, "pipetile: %s: %s\n", kind, text.c_str()); }
@@ -134,16 +135,6 @@ pipetile::tools::FrameJob frameJob(const MeshArgs& args, const std::string& inpu
     return job;
 }
 
-// Whether every output of a frame is there: a frame's files are committed together, the report
-// last, so a stopped run left either all of them or none of its own.
-bool outputsExist(const pipetile::tools::FrameJob& job)
-{
-    std::error_code ec;
-    for (int level = 0; level < job.options.levels; ++level)
-        if (!std::filesystem::exists(pipetile::tools::levelPath(job.output, level), ec)) return false;
-    return job.report.empty() || std::filesystem::exists(job.report, ec);
-}
-
 void printLevels(const pipetile::Volume& volume, const pipetile::Reconstruction& reconstruction,
                  const std::vector<pipetile::LevelMesh>& levels, const std::string& output)
 {
@@ -180,7 +171,7 @@ int runMesh(const MeshArgs& args)
     const std::string output = !args.output.empty() ? args.output
         : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) + ".ply";
     pipetile::tools::FrameJob job = frameJob(args, args.input, output, args.report);
-    if (args.skipExisting && outputsExist(job)) {
+    if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels)) {
         std::printf("%s: its outputs exist, skipped (--skip-existing)\n", output.c_str());
         return 0;
     }
@@ -421,7 +412,7 @@ int runSequence(const MeshArgs& args, const pipetile::tools::FramePattern& input
     std::vector<std::pair<int, pipetile::tools::FrameJob>> jobs;
     for (const int frame : frames) {
         pipetile::tools::FrameJob job = frameJob(args, input.path(frame), output.path(frame), report ? report->path(frame) : "");
-        if (args.skipExisting && outputsExist(job)) outcomes.push_back({frame, job.input, "skipped", "", {}});
+        if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels)) outcomes.push_back({frame, job.input, "skipped", "", {}});
         else jobs.emplace_back(frame, std::move(job));
     }
     if (!jobs.empty()) pipetile::checkMeshOptions(jobs.front().second.options); // a usage error once, not per frame
