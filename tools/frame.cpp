@@ -155,7 +155,7 @@ json meshFrame(const FrameJob& job)
         outputs.push_back({levelPath(job.output, level), "mesh of level " + std::to_string(level)});
     if (!job.report.empty()) outputs.push_back({job.report, "report"});
     refuseClobbering({{job.input, "input volume"}}, outputs);
-    const std::unique_ptr<OutputSet> files = openOutputs(outputs, job.owner, job.notify);
+    std::unique_ptr<OutputSet> files = openOutputs(outputs, job.owner, job.notify);
 
     const Volume volume = job.read ? job.read() : readVolume(job.input, job.volume);
     noteIsovalue(volume, job.notify);
@@ -182,6 +182,8 @@ json meshFrame(const FrameJob& job)
     if (job.beforeCommit) job.beforeCommit(volume, reconstruction, levels, report);
     if (!job.report.empty()) files->write(job.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
     files->commit();
+    files.reset(); // releases and removes the lock files: nothing of this run is left to do
+    if (job.committed) job.committed();
     return report;
 }
 

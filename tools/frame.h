@@ -66,6 +66,9 @@ struct FrameJob {
     /// Before the commit, with the report complete but for validation: prints, validates (adding
     /// to the report). May be empty.
     std::function<void(const Volume&, const Reconstruction&, const std::vector<LevelMesh>&, nlohmann::json&)> beforeCommit;
+    /// After the commit, the lock files gone, with the volume and the levels still alive: a
+    /// program that is done may end here without tearing them down. May be empty.
+    std::function<void()> committed;
 };
 
 /// Reads, meshes every level (level 0, then each refined from the one before) and writes the

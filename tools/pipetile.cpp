@@ -110,6 +110,14 @@ struct MeshArgs {
     std::string owner; // the command line, for a concurrent run's message
 };
 
+// Ends the process once its work is done and its outputs committed, without tearing down what
+// it built: freeing a large grid and its meshes node by node only to exit took a tenth of a run.
+[[noreturn]] void exitNow(int code)
+{
+    std::fflush(nullptr);
+    std::_Exit(code);
+}
+
 // The job of meshing one input (a file, a frame, or the phantom when `input` is empty).
 pipetile::tools::FrameJob frameJob(const MeshArgs& args, const std::string& input, const std::string& output,
                                    const std::string& report)
@@ -193,6 +201,7 @@ int runMesh(const MeshArgs& args)
         printLevels(volume, reconstruction, levels, output);
         if (args.validate) validateLevels(volume, levels, report, args.threads, true);
     };
+    job.committed = [] { exitNow(0); };
     pipetile::tools::meshFrame(job);
     return 0;
 }
