@@ -2,6 +2,7 @@
 
 #include "embed.h"
 
+#include "frame.h"
 #include "report.h"
 
 #include <pipetile/validate.h>
@@ -24,6 +25,22 @@ MeshedLevels meshLevels(const Volume& volume, const MeshOptions& options)
     // Meshing and the levels' topology; unlike the CLI's, reading the volume and writing files are not in it.
     report["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     result.report = report.dump();
+    return result;
+}
+
+MeshedFiles meshFiles(const std::string& input, const std::string& output, const std::string& report,
+                      const VolumeOptions& volume, const MeshOptions& options)
+{
+    MeshedFiles result;
+    tools::FrameJob job;
+    job.input = input;
+    job.output = output;
+    job.report = report;
+    job.owner = "pipetile Python module";
+    job.options = options;
+    job.volume = volume;
+    job.notify = [&](const char* kind, const std::string& text) { result.notes.push_back(std::string(kind) + ": " + text); };
+    result.report = tools::meshFrame(job).dump();
     return result;
 }
 

@@ -6,6 +6,7 @@
 #include <pipetile/volume.h>
 
 #include <string>
+#include <vector>
 
 namespace pipetile::python {
 
@@ -18,6 +19,17 @@ struct MeshedLevels {
 
 /// @throw UsageError for options out of range; Error as Reconstruction.
 MeshedLevels meshLevels(const Volume& volume, const MeshOptions& options);
+
+/// One input meshed into its level files and report (empty: none) as `pipetile mesh` writes them,
+/// one transaction (tools::meshFrame): the same bytes as the CLI's. Returns the report as JSON
+/// text, and the notes and warnings the CLI would print ("warning: ...").
+/// @throw UsageError, Error as tools::meshFrame (nothing is then written).
+struct MeshedFiles {
+    std::string report;
+    std::vector<std::string> notes;
+};
+MeshedFiles meshFiles(const std::string& input, const std::string& output, const std::string& report,
+                      const VolumeOptions& volume, const MeshOptions& options);
 
 /// The validation block of `pipetile validate`'s report, as JSON text.
 /// @throw Error if the mesh has no triangles.

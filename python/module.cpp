@@ -5,7 +5,9 @@
 // the library's vectors over, through a capsule that frees them with the array.
 
 #include "embed.h"
+#include "frame.h"
 #include "pyopenvdb_grid.h"
+#include "sequence.h"
 
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
@@ -103,9 +105,8 @@ std::optional<Volume> readPyOpenVdb(const py::object& grid, std::optional<double
     return volume;
 }
 
-// (vertices (N, 3) float64, [vertex count per level], [faces (M, 3) int32 per level], report JSON).
-py::tuple mesh(const Volume& volume, const std::string& axis, double spacing, int rays, int levels, bool everySlice,
-               int threads, const std::string& tiler)
+MeshOptions meshOptions(const std::string& axis, double spacing, int rays, int levels, bool everySlice, int threads,
+                        const std::string& tiler)
 {
     MeshOptions options;
     options.slicing.axis = parseAxis(axis);
@@ -115,6 +116,14 @@ py::tuple mesh(const Volume& volume, const std::string& axis, double spacing, in
     options.everySlice = everySlice;
     options.threads = threads;
     options.tiler = parseTiler(tiler);
+    return options;
+}
+
+// (vertices (N, 3) float64, [vertex count per level], [faces (M, 3) int32 per level], report JSON).
+py::tuple mesh(const Volume& volume, const std::string& axis, double spacing, int rays, int levels, bool everySlice,
+               int threads, const std::string& tiler)
+{
+    const MeshOptions options = meshOptions(axis, spacing, rays, levels, everySlice, threads, tiler);
     MeshedLevels meshed;
     {
         const py::gil_scoped_release release;
@@ -127,6 +136,43 @@ py::tuple mesh(const Volume& volume, const std::string& axis, double spacing, in
     for (std::vector<Triangle>& triangles : meshed.levels.triangles) faces.append(handOver<std::int32_t>(std::move(triangles)));
     return py::make_tuple(handOver<double>(std::move(meshed.levels.vertices)), meshed.levels.vertexCounts, faces,
                           meshed.report);
+}
+
+// (report JSON, [notes]) of one input meshed into its files, as `pipetile mesh` writes them.
+py::tuple meshToFiles(const std::string& input, const std::string& output, const std::string& report,
+                      const std::string& grid, std::optional<double> iso, const std::string& axis, double spacing,
+                      int rays, int levels, bool everySlice, int threads, const std::string& tiler)
+{
+    const MeshOptions options = meshOptions(axis, spacing, rays, levels, everySlice, threads, tiler);
+    MeshedFiles meshed;
+    {
+        const py::gil_scoped_release release;
+        meshed = meshFiles(input, output, report, volumeOptions(grid, iso), options);
+    }
+    return py::make_tuple(meshed.report, meshed.notes);
+}
+
+tools::FramePattern framePattern(const std::string& text, const char* what)
+{
+    std::optional<tools::FramePattern> pattern = tools::FramePattern::parse(text);
+    if (!pattern)
+        throw UsageError(std::string(what) + " '" + text + "' holds no frame number; write it as ####, $F4 or %04d");
+    return *pattern;
+}
+
+std::vector<int> sequenceFrames(const std::string& pattern, const std::string& range)
+{
+    return range.empty() ? framePattern(pattern, "the input").existingFrames() : tools::parseFrameRange(range);
+}
+
+std::string sequenceReport(const std::string& input, const std::string& output, const std::string& outcomes,
+                           double seconds)
+{
+    std::vector<tools::FrameOutcome> frames;
+    for (const nlohmann::json& o : nlohmann::json::parse(outcomes))
+        frames.push_back({o["frame"].get<int>(), o["input"].get<std::string>(), o["status"].get<std::string>(),
+                          o.value("error", std::string()), o.value("report", nlohmann::json())});
+    return tools::sequenceReport(input, output, frames, seconds).dump();
 }
 
 std::string validate(const Volume& volume, const py::array_t<double, py::array::c_style | py::array::forcecast>& vertices,
@@ -195,5 +241,14 @@ PYBIND11_MODULE(_pipetile, m)
     m.def("pyopenvdb_volume", &readPyOpenVdb, py::arg("grid"), py::arg("iso"));
     m.def("mesh", &mesh, py::arg("volume"), py::arg("axis"), py::arg("spacing"), py::arg("rays"), py::arg("levels"),
           py::arg("every_slice"), py::arg("threads"), py::arg("tiler"));
+    m.def("mesh_to_files", &meshToFiles, py::arg("input"), py::arg("output"), py::arg("report"), py::arg("grid"),
+          py::arg("iso"), py::arg("axis"), py::arg("spacing"), py::arg("rays"), py::arg("levels"), py::arg("every_slice"),
+          py::arg("threads"), py::arg("tiler"));
+    m.def("frame_path", [](const std::string& pattern, int frame) { return framePattern(pattern, "the pattern").path(frame); },
+          py::arg("pattern"), py::arg("frame"));
+    m.def("sequence_frames", &sequenceFrames, py::arg("pattern"), py::arg("range"));
+    m.def("outputs_exist", &tools::outputsExist, py::arg("output"), py::arg("report"), py::arg("levels"));
+    m.def("frame_error", &tools::frameError, py::arg("frame"), py::arg("what"));
+    m.def("sequence_report", &sequenceReport, py::arg("input"), py::arg("output"), py::arg("outcomes"), py::arg("seconds"));
     m.def("validate", &validate, py::arg("volume"), py::arg("vertices"), py::arg("faces"), py::arg("threads"));
 }

@@ -11,12 +11,16 @@
 #include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <mutex>
 #include <sstream>
+#include <streambuf>
+#include <vector>
 
 namespace pipetile {
 
@@ -134,12 +138,38 @@ std::vector<GridSummary> summarizeGrids(openvdb::io::File& file, const std::stri
 // know, are read grid by grid by io::File, trusting them.
 constexpr std::uintmax_t kBoundedReadBytes = std::uintmax_t(256) << 20;
 
+/// A read-only stream buffer over bytes in memory, seekable: io::Stream reads a file in many small
+/// pieces, and a file stream paid a system call for each seek; the file is read once instead.
+class MemoryBuffer : public std::streambuf {
+public:
+    explicit MemoryBuffer(std::vector<char>& bytes) { setg(bytes.data(), bytes.data(), bytes.data() + bytes.size()); }
+
+protected:
+    pos_type seekoff(off_type offset, std::ios_base::seekdir dir, std::ios_base::openmode) override
+    {
+        const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback();
+        return seekpos(pos_type(base + offset), std::ios_base::in);
+    }
+    pos_type seekpos(pos_type position, std::ios_base::openmode) override
+    {
+        const off_type at = off_type(position);
+        if (at < 0 || at > egptr() - eback()) return pos_type(off_type(-1));
+        setg(eback(), eback() + at, egptr());
+        return position;
+    }
+};
+
 openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::string& name)
 {
     std::error_code ec;
     const std::uintmax_t size = std::filesystem::file_size(path, ec);
     if (ec || size > kBoundedReadBytes) return nullptr;
-    std::ifstream in(path, std::ios::binary);
+    std::vector<char> bytes(static_cast<std::size_t>(size));
+    std::ifstream file(path, std::ios::binary);
+    if (!file.read(bytes.data(), static_cast<std::streamsize>(size)))
+        throw Error(inQuotes(path) + ": cannot read it (" + std::strerror(errno) + ")");
+    MemoryBuffer buffer(bytes);
+    std::istream in(&buffer);
     in.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
     try {
         openvdb::io::Stream stream(in, /*delayLoad=*/false);

@@ -356,3 +356,57 @@ def test_cmake_install_puts_the_module_where_debian_python_finds_it(phantom, tmp
     where, triangles = run("/usr/bin/python3", "-c", code, phantom, cwd=tmp_path, env=env).stdout.split()
     assert where.startswith(str(stage))
     assert int(triangles) == len(phantom_levels[-1].faces)
+
+
+def write_sphere_frames(folder, frames):
+    """Frame f: a level set sphere of radius 4 + f / 2 voxels, so each frame's mesh is its own."""
+    for f in frames:
+        sphere = vdb.createLevelSetSphere(radius=4.0 + 0.5 * f, center=(0, 0, 0), voxelSize=1.0, halfWidth=3.0)
+        sphere.name = "sphere"
+        vdb.write(str(folder / f"seq.{f:04d}.vdb"), grids=[sphere])
+
+
+def test_dask_local_cluster_writes_the_cli_batch_files(tmp_path):
+    """pipetile.dask.mesh_frames on a LocalCluster of 2 worker processes writes the files the CLI's
+    batch writes, byte for byte, and names a damaged frame as the CLI does."""
+    import faulthandler
+
+    from distributed import Client, LocalCluster
+
+    import pipetile.dask
+
+    write_sphere_frames(tmp_path, range(1, 6))
+    damaged = tmp_path / "seq.0003.vdb"
+    os.truncate(damaged, damaged.stat().st_size // 2)
+    (tmp_path / "cli").mkdir()
+    (tmp_path / "dask").mkdir()
+    pattern = str(tmp_path / "seq.####.vdb")
+    cli = subprocess.run([CLI, "mesh", pattern, "-o", tmp_path / "cli/seq.####.ply", "--report",
+                          tmp_path / "cli/seq.####.json", "--summary", tmp_path / "summary.json"],
+                         capture_output=True, text=True)
+    assert cli.returncode == 1, cli.stderr
+    cli_summary = json.loads((tmp_path / "summary.json").read_text())
+
+    faulthandler.dump_traceback_later(240, exit=True)  # a hung cluster fails the test, not CI
+    try:
+        with LocalCluster(processes=True, n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster, \
+                Client(cluster) as client:
+            summary = pipetile.dask.mesh_frames(client, pattern, None, str(tmp_path / "dask/seq.$F4.ply"),
+                                                report=str(tmp_path / "dask/seq.%04d.json"), timeout=120)
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+
+    assert (summary["frames"], summary["meshed"], summary["failed"]) == (5, 4, 1)
+    assert summary["failures"] == cli_summary["failures"]  # the same frame, the same one-line message
+    assert summary["failures"][0]["error"].startswith("frame 3: ")
+    assert summary["totals"]["triangles"] == cli_summary["totals"]["triangles"]
+    meshes = sorted(p.name for p in (tmp_path / "cli").glob("*.ply"))
+    assert meshes == sorted(p.name for p in (tmp_path / "dask").iterdir() if p.suffix == ".ply")
+    assert len(meshes) == 4 * 4  # 4 frames meshed, 4 levels each
+    for name in meshes:
+        assert (tmp_path / "dask" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    # The reports hold the same meshes (their times differ).
+    for f in (1, 2, 4, 5):
+        cli_report = json.loads((tmp_path / f"cli/seq.{f:04d}.json").read_text())
+        dask_report = json.loads((tmp_path / f"dask/seq.{f:04d}.json").read_text())
+        assert [lv["triangles"] for lv in dask_report["levels"]] == [lv["triangles"] for lv in cli_report["levels"]]

@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libglm-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libmeshoptimizer-dev
           libopenvdb-tools libboost-python-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
-          python3-openvdb python3-meshio)
+          python3-openvdb python3-meshio python3-dask python3-distributed)
 if ! dpkg -s "${packages[@]}" >/dev/null 2>&1; then
   sudo=""; [ "$(id -u)" = 0 ] || sudo=sudo
   $sudo apt-get update -q

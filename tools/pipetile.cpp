@@ -4,13 +4,17 @@
 #include <pipetile/pipetile.h>
 
 #include "bench.h"
-#include "report.h"
+#include "frame.h"
 #include "phantoms.h"
+#include "progress.h"
+#include "report.h"
+#include "sequence.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <pthread.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -20,8 +24,10 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <future>
 #include <memory>
 #include <new>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -33,21 +39,20 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
+using pipetile::tools::checkWritableTarget;
+using pipetile::tools::NamedPath;
+using pipetile::tools::noteIsovalue;
+using pipetile::tools::openOutputs;
+using pipetile::tools::outputsExist;
+using pipetile::tools::refuseClobbering;
+
+void printNote(const char* kind, const std::string& text) { std::fprintf(stderr, "pipetile: %s: %s\n", kind, text.c_str()); }
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 void writeJson(const json& report, pipetile::OutputSet& outputs, const std::string& path)
 {
     outputs.write(path, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
-}
-
-// name_L<k>.ext next to the path the user gave.
-std::string levelPath(const std::string& output, int level)
-{
-    const std::filesystem::path p(output);
-    std::filesystem::path name = p.parent_path() / (p.stem().string() + "_L" + std::to_string(level));
-    name += p.extension();
-    return name.string();
 }
 
 // What is wrong with a mesh's topology, in words, with where the first non-manifold edge and
@@ -93,104 +98,36 @@ void printValidationRow(const std::string& label, const pipetile::Validation& v)
                 t.outward() ? "yes" : "NO", t.euler, v.quality.smallestAngle, v.voxel);
 }
 
-void checkWritableTarget(const std::string& path, const char* what)
-{
-    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-    std::error_code ec;
-    if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
-        throw pipetile::Error("'" + path + "': the folder '" + folder.string() + "' for the " + what +
-                              " does not exist; create it first");
-}
-
-// Whether two paths name one file: by device and inode where both exist (hard links, symbolic
-// links and other spellings of one file), else by their normalised absolute paths.
-bool sameFile(const std::string& a, const std::string& b)
-{
-    std::error_code ec;
-    if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
-    return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
-}
-
-struct NamedPath {
-    std::string path;
-    std::string what; // "input volume", "report", ...
-};
-
-// Refuses, before any work, an output that is one of the inputs or another output: it would be
-// overwritten (a report over the volume it describes, a coloured mesh over the mesh it reads).
-void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs)
-{
-    for (std::size_t o = 0; o < outputs.size(); ++o) {
-        for (const NamedPath& in : inputs)
-            if (!in.path.empty() && sameFile(outputs[o].path, in.path))
-                throw pipetile::UsageError("the " + outputs[o].what + " '" + outputs[o].path + "' is the " + in.what +
-                                           " '" + in.path + "': writing it would destroy it; choose another name");
-        for (std::size_t p = 0; p < o; ++p)
-            if (sameFile(outputs[o].path, outputs[p].path))
-                throw pipetile::UsageError("the " + outputs[o].what + " '" + outputs[o].path + "' is also the " +
-                                           outputs[p].what + "; give them different names");
-    }
-}
-
-// The run's outputs as one transaction, locked before any work: a concurrent run writing any of
-// them fails now, and is told this one's command line.
-std::unique_ptr<pipetile::OutputSet> openOutputs(const std::vector<NamedPath>& outputs, const std::string& owner)
-{
-    std::vector<std::string> paths;
-    for (const NamedPath& o : outputs) paths.push_back(o.path);
-    auto set = std::make_unique<pipetile::OutputSet>(paths, owner);
-    const std::vector<std::string>& stale = set->staleRemoved();
-    if (!stale.empty())
-        std::fprintf(stderr, "pipetile: note: removed %zu temporary file%s left by a pipetile run that was killed (%s%s)\n",
-                     stale.size(), stale.size() == 1 ? "" : "s", stale.front().c_str(), stale.size() == 1 ? "" : ", ...");
-    return set;
-}
-
-// Binary STL holds float32 only: far from the origin that moves vertices. Say so beyond 1/100 voxel.
-void warnIfRounded(const std::string& output, double rounding, double voxel)
-{
-    if (rounding > 0.01 * voxel)
-        std::fprintf(stderr, "pipetile: warning: '%s': float32 coordinates (the format's only kind) move vertices by up "
-                             "to %.3g voxels this far from the origin; write .ply, .obj or .off to keep them exact\n",
-                     output.c_str(), rounding / voxel);
-}
-
-// Says on stderr when the isovalue deserves a second look: the default fog isovalue left hot
-// voxels out, or so few voxels lie inside that the mesh can only be specks.
-void noteIsovalue(const pipetile::Volume& volume)
-{
-    const std::string grid = "grid '" + volume.gridName() + "'";
-    if (volume.hotVoxels() > 0) {
-        const bool one = volume.hotVoxels() == 1;
-        std::fprintf(stderr, "pipetile: note: %s: iso %g, halfway from the background %g to %g; %lld voxel%s denser (up "
-                             "to %g), too few to be the object (fewer than %lld), so the default ignores %s; pass --iso "
-                             "to choose\n",
-                     grid.c_str(), volume.iso(), volume.background(), 2.0 * volume.iso() - volume.background(),
-                     volume.hotVoxels(), one ? " is" : "s are", volume.maxValue(), pipetile::kFewestObjectVoxels,
-                     one ? "it" : "them");
-    }
-    if (volume.insideVoxels() < pipetile::kFewestObjectVoxels)
-        std::fprintf(stderr, "pipetile: warning: %s: only %lld active voxel%s inside the surface at iso %g: the mesh "
-                             "can only be specks (values range from %g to %g; choose --iso)\n",
-                     grid.c_str(), volume.insideVoxels(), volume.insideVoxels() == 1 ? " lies" : "s lie", volume.iso(),
-                     volume.minValue(), volume.maxValue());
-}
 
 struct MeshArgs {
-    std::string input, output, grid, report;
+    std::string input, output, grid, report, frames, summary;
     std::optional<double> iso;
     std::string axis = "auto";
     double spacing = 2.0;
     int rays = 8, levels = 4, threads = 0;
-    bool validate = false, everySlice = false;
+    bool validate = false, everySlice = false, skipExisting = false;
     std::string tiler = "contour-tree";
     std::string owner; // the command line, for a concurrent run's message
 };
 
-int runMesh(const MeshArgs& args)
+// Ends the process once its work is done and its outputs committed, without tearing down what
+// it built: freeing a large grid and its meshes node by node only to exit took a tenth of a run.
+[[noreturn]] void exitNow(int code)
 {
-    const Clock::time_point start = Clock::now();
-    pipetile::MeshOptions options;
+    std::fflush(nullptr);
+    std::_Exit(code);
+}
+
+// The job of meshing one input (a file, a frame, or the phantom when `input` is empty).
+pipetile::tools::FrameJob frameJob(const MeshArgs& args, const std::string& input, const std::string& output,
+                                   const std::string& report)
+{
+    pipetile::tools::FrameJob job;
+    job.input = input;
+    job.output = output;
+    job.report = report;
+    job.owner = args.owner;
+    pipetile::MeshOptions& options = job.options;
     options.slicing.spacingVoxels = args.spacing;
     options.slicing.axis = args.axis == "x" ? pipetile::Axis::X : args.axis == "y" ? pipetile::Axis::Y
                          : args.axis == "z" ? pipetile::Axis::Z : pipetile::Axis::Auto;
@@ -200,75 +137,72 @@ int runMesh(const MeshArgs& args)
     options.everySlice = args.everySlice;
     options.tiler = args.tiler == "optimal" ? pipetile::TilerKind::Optimal
                   : args.tiler == "greedy"  ? pipetile::TilerKind::Greedy : pipetile::TilerKind::ContourTree;
-    pipetile::checkMeshOptions(options);
+    job.volume.gridName = args.grid;
+    job.volume.iso = args.iso;
+    job.notify = printNote;
+    return job;
+}
 
-    // Fail before any work on outputs that could never be written.
-    const std::string output = !args.output.empty() ? args.output
-        : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) + ".ply";
-    if (!pipetile::isMeshExtension(output))
-        throw pipetile::UsageError("-o '" + output + "': unknown mesh format; use .ply .obj .stl .off");
-    checkWritableTarget(output, "meshes");
-    if (!args.report.empty()) checkWritableTarget(args.report, "report");
-    std::vector<NamedPath> outputs;
-    for (int level = 0; level < args.levels; ++level)
-        outputs.push_back({levelPath(output, level), "mesh of level " + std::to_string(level)});
-    if (!args.report.empty()) outputs.push_back({args.report, "report"});
-    refuseClobbering({{args.input, "input volume"}}, outputs);
-    const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner);
-
-    pipetile::VolumeOptions volumeOptions;
-    volumeOptions.gridName = args.grid;
-    volumeOptions.iso = args.iso;
-    const pipetile::Volume volume = args.input.empty() ? pipetile::samples::makeSample("phantom")
-                                                       : pipetile::readVolume(args.input, volumeOptions);
-    if (args.input.empty() && args.iso) throw pipetile::UsageError("--iso needs an INPUT file");
-    noteIsovalue(volume);
-
-    // Level 0, then each level refined from the one before (only the new rays are cast).
-    const pipetile::Reconstruction reconstruction(volume, options);
-    if (reconstruction.finestUsefulLevel() < reconstruction.levelCount() - 1)
-        std::fprintf(stderr, "pipetile: warning: levels above %d cast more rays than the longest boundary has pixels (%lld); "
-                             "they add vertices but no detail (lower --levels or --rays)\n",
-                     reconstruction.finestUsefulLevel(), reconstruction.stats().longestBoundary);
-    pipetile::Refinement refinement(reconstruction);
-    std::vector<pipetile::LevelMesh> levels{refinement.mesh()};
-    while (refinement.canRefine()) levels.push_back(refinement.refine());
-
-    // Each level to its temporary file; they replace the earlier files together, with the report.
-    double rounding = 0.0;
-    for (const pipetile::LevelMesh& level : levels)
-        rounding = std::max(rounding, pipetile::writeMesh(level.mesh, *files, levelPath(output, level.level)));
-    warnIfRounded(output, rounding, volume.smallestVoxel());
-
+void printLevels(const pipetile::Volume& volume, const pipetile::Reconstruction& reconstruction,
+                 const std::vector<pipetile::LevelMesh>& levels, const std::string& output)
+{
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
-    json report = pipetile::tools::meshReport(volume, reconstruction);
     std::printf("%s  grid '%s' (%s, iso %g), axis %s, %d slices, %d contours in %d tubes\n", volume.source().c_str(),
                 volume.gridName().c_str(), pipetile::toString(volume.volumeClass()), volume.iso(),
                 pipetile::tools::axisName(reconstruction.plan().axis), stats.slices, stats.contours, stats.tubes);
     std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
-    for (std::size_t k = 0; k < levels.size(); ++k) {
-        const pipetile::LevelMesh& level = levels[k];
-        // The level's own topology is a linear pass over its triangles: only when a report is asked for.
-        report["levels"].push_back(pipetile::tools::levelReport(level, !args.report.empty()));
-        report["levels"][k]["file"] = levelPath(output, level.level);
+    for (const pipetile::LevelMesh& level : levels)
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
-                    level.mesh.triangles.size(), level.seconds, levelPath(output, level.level).c_str());
-    }
-    report["seconds"] = secondsSince(start);
-    if (args.validate) {
-        // One reference isosurface for all levels; its time is the same-run peer of ours.
-        const pipetile::Validator validator(volume, {1.0, args.threads});
+                    level.mesh.triangles.size(), level.seconds, pipetile::tools::levelPath(output, level.level).c_str());
+}
+
+// Adds a validation block to every level of the report; prints the table when `print`.
+void validateLevels(const pipetile::Volume& volume, const std::vector<pipetile::LevelMesh>& levels, json& report,
+                    int threads, bool print)
+{
+    // One reference isosurface for all levels; its time is the same-run peer of ours.
+    const pipetile::Validator validator(volume, {1.0, threads});
+    if (print) {
         std::printf("\nvalidation against volumeToMesh (%zu triangles, %.4f s):\n", validator.reference().triangles.size(),
                     validator.referenceSeconds());
         printValidationHeader();
-        for (std::size_t k = 0; k < levels.size(); ++k) {
-            const pipetile::Validation v = validator.validate(levels[k].mesh);
-            report["levels"][k]["validation"] = pipetile::tools::validationReport(v);
-            printValidationRow("L" + std::to_string(levels[k].level), v);
-        }
     }
-    if (!args.report.empty()) writeJson(report, *files, args.report);
-    files->commit();
+    for (std::size_t k = 0; k < levels.size(); ++k) {
+        const pipetile::Validation v = validator.validate(levels[k].mesh);
+        report["levels"][k]["validation"] = pipetile::tools::validationReport(v);
+        if (print) printValidationRow("L" + std::to_string(levels[k].level), v);
+    }
+}
+
+int runMesh(const MeshArgs& args)
+{
+    const std::string output = !args.output.empty() ? args.output
+        : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) + ".ply";
+    pipetile::tools::FrameJob job = frameJob(args, args.input, output, args.report);
+    if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels)) {
+        std::printf("%s: its outputs exist, skipped (--skip-existing)\n", output.c_str());
+        return 0;
+    }
+    if (args.input.empty())
+        job.read = [&] {
+            pipetile::Volume phantom = pipetile::samples::makeSample("phantom");
+            if (args.iso) throw pipetile::UsageError("--iso needs an INPUT file");
+            return phantom;
+        };
+    // A large volume takes a while per level: a bar on a terminal (a log keeps its lines as they were).
+    std::optional<pipetile::tools::Progress> progress;
+    if (::isatty(STDERR_FILENO)) {
+        progress.emplace(args.levels, "levels", true);
+        job.levelDone = [&](int level, int) { progress->step("level " + std::to_string(level - 1)); };
+    }
+    job.beforeCommit = [&](const pipetile::Volume& volume, const pipetile::Reconstruction& reconstruction,
+                           const std::vector<pipetile::LevelMesh>& levels, json& report) {
+        progress.reset();
+        printLevels(volume, reconstruction, levels, output);
+        if (args.validate) validateLevels(volume, levels, report, args.threads, true);
+    };
+    job.committed = [] { exitNow(0); };
+    pipetile::tools::meshFrame(job);
     return 0;
 }
 
@@ -290,12 +224,12 @@ int runValidate(const ValidateArgs& args)
     if (!args.colors.empty()) outputs.push_back({args.colors, "coloured mesh"});
     if (!args.report.empty()) outputs.push_back({args.report, "report"});
     refuseClobbering({{args.input, "input volume"}, {args.mesh, "mesh to validate"}}, outputs);
-    const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner);
+    const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner, printNote);
     pipetile::VolumeOptions volumeOptions;
     volumeOptions.gridName = args.grid;
     volumeOptions.iso = args.iso;
     const pipetile::Volume volume = pipetile::readVolume(args.input, volumeOptions);
-    noteIsovalue(volume);
+    noteIsovalue(volume, printNote);
     const pipetile::TriangleMesh mesh = pipetile::readMesh(args.mesh);
     if (mesh.triangles.empty())
         throw pipetile::Error("'" + args.mesh + "': the mesh has " + std::to_string(mesh.vertices.size()) +
@@ -406,6 +340,114 @@ std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate)
     return "out of memory: use a smaller grid (clip it to the object) or fewer levels";
 }
 
+// The pattern of a sequence's outputs (-o, --report): it must hold the frame number too.
+std::optional<pipetile::tools::FramePattern> outputPattern(const std::string& text, const char* option)
+{
+    if (text.empty()) return std::nullopt;
+    std::optional<pipetile::tools::FramePattern> pattern = pipetile::tools::FramePattern::parse(text);
+    if (!pattern)
+        throw pipetile::UsageError(std::string(option) + " '" + text + "': the input is a sequence, so each frame needs " +
+                                   "its own file; put the frame number in it (####, $F4 or %04d)");
+    return pattern;
+}
+
+// Reads a frame on a thread of its own, while the frame before it is meshed.
+std::future<pipetile::Volume> readAhead(const std::string& path, const pipetile::VolumeOptions& options)
+{
+    return std::async(std::launch::async, [path, options] { return pipetile::readVolume(path, options); });
+}
+
+// Meshes one frame of a sequence; a failure is the frame's, told in one line, and the run goes on.
+pipetile::tools::FrameOutcome meshSequenceFrame(const MeshArgs& args, pipetile::tools::FrameJob job, int frame,
+                                                std::future<pipetile::Volume>& volume, pipetile::tools::Progress& progress)
+{
+    pipetile::tools::FrameOutcome outcome{frame, job.input, "meshed", "", {}};
+    const std::string name = "frame " + std::to_string(frame);
+    job.notify = [&](const char* kind, const std::string& text) {
+        progress.print(std::string("pipetile: ") + kind + ": " + name + ": " + text);
+    };
+    job.read = [&] { return volume.get(); };
+    job.beforeCommit = [&](const pipetile::Volume& v, const pipetile::Reconstruction&,
+                           const std::vector<pipetile::LevelMesh>& levels, json& report) {
+        if (args.validate) validateLevels(v, levels, report, args.threads, false);
+    };
+    MeshArgs frameArgs = args;
+    frameArgs.input = job.input;
+    try {
+        outcome.report = pipetile::tools::meshFrame(job);
+    } catch (const pipetile::Error& e) {
+        outcome.error = pipetile::tools::frameError(frame, e.what());
+    } catch (const std::bad_alloc&) {
+        outcome.error = pipetile::tools::frameError(frame, outOfMemory(&frameArgs, nullptr));
+    } catch (const std::length_error&) {
+        outcome.error = pipetile::tools::frameError(frame, outOfMemory(&frameArgs, nullptr));
+    } catch (const std::exception& e) {
+        outcome.error = pipetile::tools::frameError(frame, std::string("internal error: ") + e.what() +
+                                                               " (please report it with the input)");
+    }
+    if (!outcome.error.empty()) {
+        outcome.status = "failed";
+        progress.print("pipetile: error: " + outcome.error);
+    } else {
+        const json& finest = outcome.report["levels"].back();
+        char line[64];
+        std::snprintf(line, sizeof line, ", %lld triangles at level %d, %.3f s", finest["triangles"].get<long long>(),
+                      finest["level"].get<int>(), outcome.report["seconds"].get<double>());
+        progress.print(name + ": " + job.input + " -> " + job.output + line, stdout);
+    }
+    progress.step(name, !outcome.error.empty());
+    return outcome;
+}
+
+// `pipetile mesh 'sim/smoke.####.vdb' [--frames A-B[:step]] -o 'out/smoke.####.ply'`: every frame
+// in one process, each frame its own transaction, the next frame read while this one is meshed.
+int runSequence(const MeshArgs& args, const pipetile::tools::FramePattern& input)
+{
+    const Clock::time_point start = Clock::now();
+    const std::string defaultOutput = std::filesystem::path(input.text()).stem().string() + ".ply";
+    const pipetile::tools::FramePattern output = *outputPattern(args.output.empty() ? defaultOutput : args.output, "-o");
+    const std::optional<pipetile::tools::FramePattern> report = outputPattern(args.report, "--report");
+    const std::vector<int> frames = args.frames.empty() ? input.existingFrames() : pipetile::tools::parseFrameRange(args.frames);
+    if (frames.empty())
+        throw pipetile::Error("'" + input.text() + "': no file matches; check the name, or give --frames A-B");
+    std::unique_ptr<pipetile::OutputSet> summary;
+    if (!args.summary.empty()) {
+        pipetile::tools::checkWritableTarget(args.summary, "summary");
+        summary = pipetile::tools::openOutputs({{args.summary, "summary"}}, args.owner, printNote);
+    }
+
+    // Frames whose outputs all exist are done (--skip-existing); the others are meshed in order.
+    std::vector<pipetile::tools::FrameOutcome> outcomes;
+    std::vector<std::pair<int, pipetile::tools::FrameJob>> jobs;
+    for (const int frame : frames) {
+        pipetile::tools::FrameJob job = frameJob(args, input.path(frame), output.path(frame), report ? report->path(frame) : "");
+        if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels)) outcomes.push_back({frame, job.input, "skipped", "", {}});
+        else jobs.emplace_back(frame, std::move(job));
+    }
+    if (!jobs.empty()) pipetile::checkMeshOptions(jobs.front().second.options); // a usage error once, not per frame
+    pipetile::tools::Progress progress(static_cast<int>(jobs.size()), "frames", ::isatty(STDERR_FILENO));
+    std::future<pipetile::Volume> next;
+    if (!jobs.empty()) next = readAhead(jobs.front().second.input, jobs.front().second.volume);
+    for (std::size_t k = 0; k < jobs.size(); ++k) {
+        std::future<pipetile::Volume> volume = std::move(next);
+        if (k + 1 < jobs.size()) next = readAhead(jobs[k + 1].second.input, jobs[k + 1].second.volume);
+        outcomes.push_back(meshSequenceFrame(args, jobs[k].second, jobs[k].first, volume, progress));
+    }
+    std::sort(outcomes.begin(), outcomes.end(), [](const auto& a, const auto& b) { return a.frame < b.frame; });
+
+    const json aggregate = pipetile::tools::sequenceReport(input.text(), output.text(), outcomes, secondsSince(start));
+    progress.print(std::to_string(outcomes.size()) + " frames: " + std::to_string(aggregate["meshed"].get<int>()) +
+                       " meshed, " + std::to_string(aggregate["skipped"].get<int>()) + " skipped (outputs exist), " +
+                       std::to_string(aggregate["failed"].get<int>()) + " failed, in " +
+                       formatNumber(aggregate["seconds"].get<double>()) + " s",
+                   stdout);
+    if (summary) {
+        writeJson(aggregate, *summary, args.summary);
+        summary->commit();
+    }
+    return aggregate["failed"].get<int>() > 0 ? 1 : 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -429,6 +471,11 @@ int main(int argc, char** argv)
     mesh->add_flag("--validate", meshArgs.validate, "compare every level with volumeToMesh's isosurface");
     mesh->add_option("--tiler", meshArgs.tiler, "tiler: the paper's contour trees, or a toroidal baseline")
         ->check(CLI::IsMember({"contour-tree", "optimal", "greedy"}));
+    mesh->add_option("--frames", meshArgs.frames,
+                     "frames A-B[:STEP] of a sequence INPUT such as 'sim/smoke.####.vdb' ($F4, %04d); default: "
+                     "the files that exist");
+    mesh->add_flag("--skip-existing", meshArgs.skipExisting, "skip a frame whose outputs all exist (resumes a run)");
+    mesh->add_option("--summary", meshArgs.summary, "write the aggregate JSON report of a sequence");
     mesh->add_flag("--every-slice", meshArgs.everySlice,
                    "tile every slice at every level, as the paper does (default: coarse levels skip the slices "
                    "their neighbours predict within the level's own error)");
@@ -479,7 +526,15 @@ int main(int argc, char** argv)
         return 1;
     };
     try {
-        if (mesh->parsed()) return runMesh(meshArgs);
+        if (mesh->parsed()) {
+            if (const auto sequence = pipetile::tools::FramePattern::parse(meshArgs.input))
+                return runSequence(meshArgs, *sequence);
+            if (!meshArgs.frames.empty() || !meshArgs.summary.empty())
+                throw pipetile::UsageError(std::string(meshArgs.frames.empty() ? "--summary" : "--frames") +
+                                           " is for a sequence: name the input with its frame number as ####, $F4 or "
+                                           "%04d (for example 'sim/smoke.####.vdb')");
+            return runMesh(meshArgs);
+        }
         if (validate->parsed()) return runValidate(validateArgs);
         if (bench->parsed()) {
             if (!benchArgs.report.empty()) refuseClobbering({{benchArgs.input, "input volume"}}, {{benchArgs.report, "report"}});

@@ -1,0 +1,190 @@
+// pipetile — one volume meshed into its level files and report, as one transaction.
+
+#include "frame.h"
+
+#include "report.h"
+
+#include <pipetile/error.h>
+#include <pipetile/mesh_io.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdarg>
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+namespace pipetile::tools {
+
+using nlohmann::json;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+__attribute__((format(printf, 1, 2))) std::string format(const char* pattern, ...)
+{
+    va_list args, again;
+    va_start(args, pattern);
+    va_copy(again, args);
+    const int size = std::vsnprintf(nullptr, 0, pattern, args);
+    va_end(args);
+    std::string text(static_cast<std::size_t>(std::max(size, 0)) + 1, '\0');
+    std::vsnprintf(text.data(), text.size(), pattern, again);
+    va_end(again);
+    text.resize(text.size() - 1);
+    return text;
+}
+
+// Whether two paths name one file: by device and inode where both exist (hard links, symbolic
+// links and other spellings of one file), else by their normalised absolute paths.
+bool sameFile(const std::string& a, const std::string& b)
+{
+    std::error_code ec;
+    if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
+    return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+// Binary STL holds float32 only: far from the origin that moves vertices. Say so beyond 1/100 voxel.
+void warnIfRounded(const std::string& output, double rounding, double voxel, const Notify& notify)
+{
+    if (rounding > 0.01 * voxel)
+        notify("warning", format("'%s': float32 coordinates (the format's only kind) move vertices by up to %.3g voxels "
+                                 "this far from the origin; write .ply, .obj or .off to keep them exact",
+                                 output.c_str(), rounding / voxel));
+}
+
+// Level 0, then each level refined from the one before (only the new rays are cast).
+std::vector<LevelMesh> buildLevels(const Reconstruction& reconstruction, const FrameJob& job)
+{
+    Refinement refinement(reconstruction);
+    std::vector<LevelMesh> levels{refinement.mesh()};
+    const int count = reconstruction.levelCount();
+    if (job.levelDone) job.levelDone(1, count);
+    while (refinement.canRefine()) {
+        levels.push_back(refinement.refine());
+        if (job.levelDone) job.levelDone(static_cast<int>(levels.size()), count);
+    }
+    return levels;
+}
+
+} // namespace
+
+void checkWritableTarget(const std::string& path, const char* what)
+{
+    const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+    std::error_code ec;
+    if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
+        throw Error("'" + path + "': the folder '" + folder.string() + "' for the " + what +
+                    " does not exist; create it first");
+}
+
+std::string levelPath(const std::string& output, int level)
+{
+    const std::filesystem::path p(output);
+    std::filesystem::path name = p.parent_path() / (p.stem().string() + "_L" + std::to_string(level));
+    name += p.extension();
+    return name.string();
+}
+
+bool outputsExist(const std::string& output, const std::string& report, int levels)
+{
+    std::error_code ec;
+    for (int level = 0; level < levels; ++level)
+        if (!std::filesystem::exists(levelPath(output, level), ec)) return false;
+    return report.empty() || std::filesystem::exists(report, ec);
+}
+
+void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs)
+{
+    for (std::size_t o = 0; o < outputs.size(); ++o) {
+        for (const NamedPath& in : inputs)
+            if (!in.path.empty() && sameFile(outputs[o].path, in.path))
+                throw UsageError("the " + outputs[o].what + " '" + outputs[o].path + "' is the " + in.what + " '" +
+                                 in.path + "': writing it would destroy it; choose another name");
+        for (std::size_t p = 0; p < o; ++p)
+            if (sameFile(outputs[o].path, outputs[p].path))
+                throw UsageError("the " + outputs[o].what + " '" + outputs[o].path + "' is also the " +
+                                 outputs[p].what + "; give them different names");
+    }
+}
+
+std::unique_ptr<OutputSet> openOutputs(const std::vector<NamedPath>& outputs, const std::string& owner,
+                                       const Notify& notify)
+{
+    std::vector<std::string> paths;
+    for (const NamedPath& o : outputs) paths.push_back(o.path);
+    auto set = std::make_unique<OutputSet>(paths, owner);
+    const std::vector<std::string>& stale = set->staleRemoved();
+    if (!stale.empty())
+        notify("note", format("removed %zu temporary file%s left by a pipetile run that was killed (%s%s)", stale.size(),
+                              stale.size() == 1 ? "" : "s", stale.front().c_str(), stale.size() == 1 ? "" : ", ..."));
+    return set;
+}
+
+void noteIsovalue(const Volume& volume, const Notify& notify)
+{
+    const std::string grid = "grid '" + volume.gridName() + "'";
+    if (volume.hotVoxels() > 0) {
+        const bool one = volume.hotVoxels() == 1;
+        notify("note", format("%s: iso %g, halfway from the background %g to %g; %lld voxel%s denser (up to %g), too "
+                              "few to be the object (fewer than %lld), so the default ignores %s; pass --iso to choose",
+                              grid.c_str(), volume.iso(), volume.background(), 2.0 * volume.iso() - volume.background(),
+                              volume.hotVoxels(), one ? " is" : "s are", volume.maxValue(), kFewestObjectVoxels,
+                              one ? "it" : "them"));
+    }
+    if (volume.insideVoxels() < kFewestObjectVoxels)
+        notify("warning", format("%s: only %lld active voxel%s inside the surface at iso %g: the mesh can only be specks "
+                                 "(values range from %g to %g; choose --iso)",
+                                 grid.c_str(), volume.insideVoxels(), volume.insideVoxels() == 1 ? " lies" : "s lie",
+                                 volume.iso(), volume.minValue(), volume.maxValue()));
+}
+
+json meshFrame(const FrameJob& job)
+{
+    const Clock::time_point start = Clock::now();
+    checkMeshOptions(job.options);
+
+    // Fail before any work on outputs that could never be written.
+    if (!isMeshExtension(job.output))
+        throw UsageError("-o '" + job.output + "': unknown mesh format; use .ply .obj .stl .off");
+    checkWritableTarget(job.output, "meshes");
+    if (!job.report.empty()) checkWritableTarget(job.report, "report");
+    std::vector<NamedPath> outputs;
+    for (int level = 0; level < job.options.levels; ++level)
+        outputs.push_back({levelPath(job.output, level), "mesh of level " + std::to_string(level)});
+    if (!job.report.empty()) outputs.push_back({job.report, "report"});
+    refuseClobbering({{job.input, "input volume"}}, outputs);
+    std::unique_ptr<OutputSet> files = openOutputs(outputs, job.owner, job.notify);
+
+    const Volume volume = job.read ? job.read() : readVolume(job.input, job.volume);
+    noteIsovalue(volume, job.notify);
+    const Reconstruction reconstruction(volume, job.options);
+    if (reconstruction.finestUsefulLevel() < reconstruction.levelCount() - 1)
+        job.notify("warning", format("levels above %d cast more rays than the longest boundary has pixels (%lld); they "
+                                     "add vertices but no detail (lower --levels or --rays)",
+                                     reconstruction.finestUsefulLevel(), reconstruction.stats().longestBoundary));
+    const std::vector<LevelMesh> levels = buildLevels(reconstruction, job);
+
+    // Each level to its temporary file; they replace the earlier files together, with the report.
+    double rounding = 0.0;
+    for (const LevelMesh& level : levels)
+        rounding = std::max(rounding, writeMesh(level.mesh, *files, levelPath(job.output, level.level)));
+    warnIfRounded(job.output, rounding, volume.smallestVoxel(), job.notify);
+
+    json report = meshReport(volume, reconstruction);
+    for (const LevelMesh& level : levels) {
+        // The level's own topology is a linear pass over its triangles: only when a report is asked for.
+        report["levels"].push_back(levelReport(level, !job.report.empty()));
+        report["levels"].back()["file"] = levelPath(job.output, level.level);
+    }
+    report["seconds"] = std::chrono::duration<double>(Clock::now() - start).count();
+    if (job.beforeCommit) job.beforeCommit(volume, reconstruction, levels, report);
+    if (!job.report.empty()) files->write(job.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
+    files->commit();
+    files.reset(); // releases and removes the lock files: nothing of this run is left to do
+    if (job.committed) job.committed();
+    return report;
+}
+
+} // namespace pipetile::tools
