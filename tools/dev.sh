@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 
 packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libglm-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libmeshoptimizer-dev
+          libtinygltf-dev
           libopenvdb-tools libboost-python-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
           python3-openvdb python3-meshio)
 if ! dpkg -s "${packages[@]}" >/dev/null 2>&1; then

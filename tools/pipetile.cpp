@@ -4,6 +4,7 @@
 #include <pipetile/pipetile.h>
 
 #include "bench.h"
+#include "html_report.h"
 #include "report.h"
 #include "phantoms.h"
 
@@ -176,8 +177,31 @@ void noteIsovalue(const pipetile::Volume& volume)
                      volume.minValue(), volume.maxValue());
 }
 
+std::string formatNumber(double v)
+{
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+// --units: the grid's world unit in metres (glTF's unit).
+double metresPerUnit(const std::string& units)
+{
+    static const std::map<std::string, double> kUnits = {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"um", 1e-6}};
+    return kUnits.at(units);
+}
+
+// --html: refused before any work when this build has no page, or its folder is missing.
+void checkHtmlTarget(const std::string& path)
+{
+    if (path.empty()) return;
+    pipetile::tools::checkHtmlReportAvailable(path);
+    checkWritableTarget(path, "HTML report");
+}
+
 struct MeshArgs {
-    std::string input, output, grid, report;
+    std::string input, output, grid, report, html;
+    std::string units = "m"; // the grid's world unit, for the .glb (glTF is in metres)
     std::optional<double> iso;
     std::string axis = "auto";
     double spacing = 2.0;
@@ -205,14 +229,21 @@ int runMesh(const MeshArgs& args)
     // Fail before any work on outputs that could never be written.
     const std::string output = !args.output.empty() ? args.output
         : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) + ".ply";
-    if (!pipetile::isMeshExtension(output))
-        throw pipetile::UsageError("-o '" + output + "': unknown mesh format; use .ply .obj .stl .off");
+    const bool glb = pipetile::isGlbPath(output);
+    if (!glb && !pipetile::isMeshExtension(output))
+        throw pipetile::UsageError("-o '" + output + "': unknown mesh format; use .ply .obj .stl .off .glb");
+    if (args.units != "m" && !glb)
+        throw pipetile::UsageError("--units scales a .glb (glTF is in metres); '" + output +
+                                   "' keeps the grid's world units as they are");
     checkWritableTarget(output, "meshes");
     if (!args.report.empty()) checkWritableTarget(args.report, "report");
+    checkHtmlTarget(args.html);
     std::vector<NamedPath> outputs;
-    for (int level = 0; level < args.levels; ++level)
+    if (glb) outputs.push_back({output, "levels (.glb)"});
+    for (int level = 0; level < args.levels && !glb; ++level)
         outputs.push_back({levelPath(output, level), "mesh of level " + std::to_string(level)});
     if (!args.report.empty()) outputs.push_back({args.report, "report"});
+    if (!args.html.empty()) outputs.push_back({args.html, "HTML report"});
     refuseClobbering({{args.input, "input volume"}}, outputs);
     const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner);
 
@@ -235,10 +266,14 @@ int runMesh(const MeshArgs& args)
     while (refinement.canRefine()) levels.push_back(refinement.refine());
 
     // Each level to its temporary file; they replace the earlier files together, with the report.
+    // A .glb holds every level over one vertex array (written below, with the validation's errors).
+    const auto levelFile = [&](int level) { return glb ? output : levelPath(output, level); };
     double rounding = 0.0;
     for (const pipetile::LevelMesh& level : levels)
-        rounding = std::max(rounding, pipetile::writeMesh(level.mesh, *files, levelPath(output, level.level)));
+        if (!glb) rounding = std::max(rounding, pipetile::writeMesh(level.mesh, *files, levelFile(level.level)));
     warnIfRounded(output, rounding, volume.smallestVoxel());
+    const bool nest = glb || !args.html.empty();
+    const pipetile::NestedLevels nested = nest ? pipetile::nestLevels(levels) : pipetile::NestedLevels{};
 
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
     json report = pipetile::tools::meshReport(volume, reconstruction);
@@ -249,12 +284,14 @@ int runMesh(const MeshArgs& args)
     for (std::size_t k = 0; k < levels.size(); ++k) {
         const pipetile::LevelMesh& level = levels[k];
         // The level's own topology is a linear pass over its triangles: only when a report is asked for.
-        report["levels"].push_back(pipetile::tools::levelReport(level, !args.report.empty()));
-        report["levels"][k]["file"] = levelPath(output, level.level);
+        report["levels"].push_back(pipetile::tools::levelReport(level, !args.report.empty() || !args.html.empty()));
+        report["levels"][k]["file"] = levelFile(level.level);
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
-                    level.mesh.triangles.size(), level.seconds, levelPath(output, level.level).c_str());
+                    level.mesh.triangles.size(), level.seconds, levelFile(level.level).c_str());
     }
     report["seconds"] = secondsSince(start);
+    pipetile::GlbOptions glbOptions;
+    glbOptions.metresPerUnit = metresPerUnit(args.units);
     if (args.validate) {
         // One reference isosurface for all levels; its time is the same-run peer of ours.
         const pipetile::Validator validator(volume, {1.0, args.threads});
@@ -262,10 +299,24 @@ int runMesh(const MeshArgs& args)
                     validator.referenceSeconds());
         printValidationHeader();
         for (std::size_t k = 0; k < levels.size(); ++k) {
-            const pipetile::Validation v = validator.validate(levels[k].mesh);
+            // Nested, the level is the same mesh renumbered; its vertex errors then fit the .glb's array.
+            const pipetile::Validation v = nest ? validator.validate(pipetile::tools::nestedMesh(nested, k))
+                                                : validator.validate(levels[k].mesh);
+            if (k + 1 == levels.size() && nest) glbOptions.vertexError = v.vertexDistance;
             report["levels"][k]["validation"] = pipetile::tools::validationReport(v);
             printValidationRow("L" + std::to_string(levels[k].level), v);
         }
+    }
+    if (glb) pipetile::writeGlb(nested, *files, output, glbOptions);
+    if (!args.html.empty()) {
+        pipetile::tools::HtmlReport html;
+        html.title = "pipetile mesh: " + volume.source();
+        html.subtitle = "grid '" + volume.gridName() + "' (" + pipetile::toString(volume.volumeClass()) + ", iso " +
+                        formatNumber(volume.iso()) + "), axis " + pipetile::tools::axisName(reconstruction.plan().axis) +
+                        ", " + std::to_string(stats.slices) + " slices, " + std::to_string(stats.tubes) + " tubes";
+        html.levels = report["levels"];
+        html.voxel = volume.smallestVoxel();
+        pipetile::tools::writeHtmlReport(*files, args.html, html, nested, glbOptions);
     }
     if (!args.report.empty()) writeJson(report, *files, args.report);
     files->commit();
@@ -273,7 +324,7 @@ int runMesh(const MeshArgs& args)
 }
 
 struct ValidateArgs {
-    std::string input, mesh, grid, report, colors, owner;
+    std::string input, mesh, grid, report, colors, html, owner;
     std::optional<double> iso;
     int threads = 0;
 };
@@ -286,9 +337,11 @@ int runValidate(const ValidateArgs& args)
             throw pipetile::UsageError("--error-colors '" + args.colors + "': the coloured mesh is written as .ply");
         checkWritableTarget(args.colors, "coloured mesh");
     }
+    checkHtmlTarget(args.html);
     std::vector<NamedPath> outputs;
     if (!args.colors.empty()) outputs.push_back({args.colors, "coloured mesh"});
     if (!args.report.empty()) outputs.push_back({args.report, "report"});
+    if (!args.html.empty()) outputs.push_back({args.html, "HTML report"});
     refuseClobbering({{args.input, "input volume"}, {args.mesh, "mesh to validate"}}, outputs);
     const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner);
     pipetile::VolumeOptions volumeOptions;
@@ -319,6 +372,21 @@ int runValidate(const ValidateArgs& args)
                        {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
                        {"validation", pipetile::tools::validationReport(v)}};
         writeJson(report, *files, args.report);
+    }
+    if (!args.html.empty()) {
+        // The mesh as the page's one level, its vertices coloured by their distance.
+        const pipetile::NestedLevels one{mesh.vertices, {mesh.vertices.size()}, {mesh.triangles}};
+        pipetile::tools::HtmlReport html;
+        html.title = "pipetile validate: " + args.mesh;
+        html.subtitle = "against the isosurface of " + args.input + ", grid '" + volume.gridName() + "' at iso " +
+                        formatNumber(volume.iso());
+        html.levels = json::array({{{"name", std::filesystem::path(args.mesh).filename().string()},
+                                    {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
+                                    {"seconds", v.seconds}, {"validation", pipetile::tools::validationReport(v)}}});
+        html.voxel = v.voxel;
+        pipetile::GlbOptions glb;
+        glb.vertexError = v.vertexDistance;
+        pipetile::tools::writeHtmlReport(*files, args.html, html, one, glb);
     }
     files->commit();
     if (!args.colors.empty()) std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
@@ -382,13 +450,6 @@ std::string commandLine(int argc, char** argv)
     return line;
 }
 
-std::string formatNumber(double v)
-{
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
-
 // What to tell a user whose run ran out of memory (std::bad_alloc, or a container asked for more
 // than it can hold): which run, and what makes it smaller.
 std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate)
@@ -417,7 +478,11 @@ int main(int argc, char** argv)
     MeshArgs meshArgs;
     CLI::App* mesh = app.add_subcommand("mesh", "Mesh a .vdb volume (default: the bundled phantom) at several levels");
     mesh->add_option("INPUT", meshArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
-    mesh->add_option("-o,--output", meshArgs.output, "output mesh; level k goes to NAME_L<k>.EXT (.ply .obj .stl .off)");
+    mesh->add_option("-o,--output", meshArgs.output,
+                     "output mesh; level k goes to NAME_L<k>.EXT (.ply .obj .stl .off), or all levels into one .glb");
+    mesh->add_option("--units", meshArgs.units, "the grid's world unit, for the .glb (glTF is in metres)")
+        ->check(CLI::IsMember({"m", "cm", "mm", "um"}));
+    mesh->add_option("--html", meshArgs.html, "write an HTML report: the levels in 3D, their table");
     mesh->add_option("--grid", meshArgs.grid, "grid name (default: the first float grid)");
     mesh->add_option("--iso", meshArgs.iso, "isovalue (default: 0 for level sets; fog: halfway from background to max)");
     mesh->add_option("--axis", meshArgs.axis, "slicing axis")->check(CLI::IsMember({"x", "y", "z", "auto"}));
@@ -437,6 +502,7 @@ int main(int argc, char** argv)
     CLI::App* bench = app.add_subcommand("bench", "Time pipetile against its baselines and volumeToMesh on one grid");
     bench->add_option("INPUT", benchArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
     bench->add_option("--report", benchArgs.report, "write the figures as JSON");
+    bench->add_option("--html", benchArgs.html, "write an HTML report: the levels in 3D, error against triangles");
     bench->add_option("--repeat", benchArgs.repeat, "repetitions per figure (median reported)")->check(CLI::Range(1, 1000));
     bench->add_option("--threads", benchArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
@@ -448,6 +514,7 @@ int main(int argc, char** argv)
     validate->add_option("--iso", validateArgs.iso, "isovalue (default as for mesh)");
     validate->add_option("--report", validateArgs.report, "write a JSON report");
     validate->add_option("--error-colors", validateArgs.colors, "write the mesh as .ply coloured by its distance");
+    validate->add_option("--html", validateArgs.html, "write an HTML report: the mesh in 3D coloured by its distance");
     validate->add_option("--threads", validateArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
     std::string sampleName, sampleOutput;
@@ -482,7 +549,11 @@ int main(int argc, char** argv)
         if (mesh->parsed()) return runMesh(meshArgs);
         if (validate->parsed()) return runValidate(validateArgs);
         if (bench->parsed()) {
-            if (!benchArgs.report.empty()) refuseClobbering({{benchArgs.input, "input volume"}}, {{benchArgs.report, "report"}});
+            std::vector<NamedPath> outputs;
+            if (!benchArgs.report.empty()) outputs.push_back({benchArgs.report, "report"});
+            if (!benchArgs.html.empty()) outputs.push_back({benchArgs.html, "HTML report"});
+            refuseClobbering({{benchArgs.input, "input volume"}}, outputs);
+            checkHtmlTarget(benchArgs.html);
             return pipetile::tools::runBench(benchArgs);
         }
         if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);
