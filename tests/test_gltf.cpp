@@ -7,9 +7,14 @@
 #include <glm/geometric.hpp>
 #include <tiny_gltf.h>
 
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 
 using namespace pipetile;
@@ -188,5 +193,123 @@ TEST(Gltf, RefusesBadInputAndWritesNothing)
     notFinite.vertices[5].y = std::nan("");
     EXPECT_THROW(writeGlb(notFinite, path), Error);
     EXPECT_THROW(writeGlb(NestedLevels{}, path), Error);
+    EXPECT_TRUE(dir.files().empty());
+}
+
+// ---- The command line: -o NAME.glb, --units, --html ------------------------------------------
+
+namespace {
+
+nlohmann::json readJsonFile(const std::string& path)
+{
+    std::ifstream in(path);
+    return nlohmann::json::parse(in);
+}
+
+std::string readText(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// The data a report page shows: the JSON of its script element "pipetile-data".
+nlohmann::json pageData(const std::string& path)
+{
+    const std::string page = readText(path);
+    const std::string open = "<script id=\"pipetile-data\" type=\"application/json\">";
+    const std::size_t begin = page.find(open);
+    EXPECT_NE(begin, std::string::npos) << path;
+    if (begin == std::string::npos) return {};
+    const std::size_t end = page.find("</script>", begin);
+    return nlohmann::json::parse(page.substr(begin + open.size(), end - begin - open.size()));
+}
+
+} // namespace
+
+TEST(Cli, GlbHoldsEveryLevelInOneFile)
+{
+    TempDir dir;
+    const std::string glb = dir.path("vessel.glb");
+    const test::CliResult r =
+        test::runCli("mesh -o '" + glb + "' --validate --units mm --report '" + dir.path("r.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(dir.files(), (std::vector<std::string>{"r.json", "vessel.glb"})); // no per-level files
+    const nlohmann::json report = readJsonFile(dir.path("r.json"));
+    const tinygltf::Model model = readGlb(glb);
+    ASSERT_EQ(report["levels"].size(), 4u);
+    ASSERT_EQ(model.meshes.size(), 4u);
+    for (std::size_t k = 0; k < 4; ++k) {
+        SCOPED_TRACE("level " + std::to_string(k));
+        const nlohmann::json& level = report["levels"][k];
+        EXPECT_EQ(level["file"].get<std::string>(), glb);
+        const tinygltf::Primitive& primitive = model.meshes[k].primitives.at(0);
+        EXPECT_EQ(model.accessors[primitive.attributes.at("POSITION")].count, level["vertices"].get<std::size_t>());
+        EXPECT_EQ(model.accessors[primitive.indices].count, 3 * level["triangles"].get<std::size_t>());
+        // _ERROR: each vertex's distance to the isosurface, in metres (--units mm: a unit is 1/1000 m).
+        // The validation's largest distance covers every vertex, and face samples besides.
+        const std::vector<float> errors = floatsOf(model, primitive.attributes.at("_ERROR"));
+        const float largest = *std::max_element(errors.begin(), errors.end());
+        EXPECT_GT(largest, 0.0f);
+        EXPECT_LE(largest, static_cast<float>(level["validation"]["mesh_to_reference"]["max"].get<double>() * 0.001));
+    }
+}
+
+TEST(Cli, UnitsScaleAGlbOnly)
+{
+    TempDir dir;
+    const test::CliResult r = test::runCli("mesh -o '" + dir.path("p.ply") + "' --units mm");
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_NE(r.err.find("--units scales a .glb"), std::string::npos) << r.err;
+    EXPECT_EQ(test::runCli("mesh -o '" + dir.path("p.glb") + "' --units furlong").exitCode, 2);
+    EXPECT_TRUE(dir.files().empty());
+    // Metres and millimetres: the same floats but for the factor 1000 (each rounded once, to float).
+    ASSERT_EQ(test::runCli("mesh -o '" + dir.path("m.glb") + "' --levels 1").exitCode, 0);
+    ASSERT_EQ(test::runCli("mesh -o '" + dir.path("mm.glb") + "' --levels 1 --units mm").exitCode, 0);
+    const tinygltf::Model m = readGlb(dir.path("m.glb")), mm = readGlb(dir.path("mm.glb"));
+    const std::vector<float> a = floatsOf(m, m.meshes[0].primitives[0].attributes.at("POSITION"));
+    const std::vector<float> b = floatsOf(mm, mm.meshes[0].primitives[0].attributes.at("POSITION"));
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(b[i], a[i] * 0.001, 1e-6 * std::abs(a[i] * 0.001) + 1e-12);
+    for (int c = 0; c < 3; ++c) EXPECT_DOUBLE_EQ(mm.nodes[0].translation[c], 0.001 * m.nodes[0].translation[c]);
+}
+
+TEST(Cli, HtmlReportsOfMeshAndValidateHoldTheirData)
+{
+    TempDir dir;
+    const test::CliResult r = test::runCli("mesh -o '" + dir.path("p.ply") + "' --validate --html '" +
+                                           dir.path("mesh.html") + "' --report '" + dir.path("r.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = readJsonFile(dir.path("r.json"));
+    const nlohmann::json page = pageData(dir.path("mesh.html"));
+    ASSERT_EQ(page["levels"].size(), 4u);
+    for (std::size_t k = 0; k < 4; ++k) {
+        EXPECT_EQ(page["levels"][k]["triangles"], report["levels"][k]["triangles"]);
+        EXPECT_EQ(page["levels"][k]["validation"]["hausdorff_voxels"], report["levels"][k]["validation"]["hausdorff_voxels"]);
+    }
+    EXPECT_TRUE(page["peers"].is_null());
+    // One file: its script and the .glb inside it, nothing beside it.
+    const std::string html = readText(dir.path("mesh.html"));
+    EXPECT_NE(html.find("<script id=\"pipetile-glb\" type=\"application/octet-stream\">Z2xURg"), std::string::npos)
+        << "the base64 of the GLB magic 'glTF'";
+    EXPECT_EQ(html.find("<script src"), std::string::npos);
+    EXPECT_EQ(html.find("<link"), std::string::npos);
+
+    ASSERT_EQ(test::runCli("sample phantom -o '" + dir.path("phantom.vdb") + "'").exitCode, 0);
+    const test::CliResult v = test::runCli("validate '" + dir.path("phantom.vdb") + "' '" + dir.path("p_L2.ply") +
+                                           "' --html '" + dir.path("v.html") + "'");
+    ASSERT_EQ(v.exitCode, 0) << v.err;
+    const nlohmann::json one = pageData(dir.path("v.html"));
+    ASSERT_EQ(one["levels"].size(), 1u);
+    EXPECT_EQ(one["levels"][0]["triangles"], report["levels"][2]["triangles"]);
+    EXPECT_EQ(one["levels"][0]["name"], "p_L2.ply");
+}
+
+TEST(Cli, AnHtmlReportInAMissingFolderFailsBeforeAnyWork)
+{
+    TempDir dir;
+    const test::CliResult r =
+        test::runCli("mesh -o '" + dir.path("p.glb") + "' --html '" + dir.path("nowhere/r.html") + "'");
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_NE(r.err.find("nowhere"), std::string::npos) << r.err;
     EXPECT_TRUE(dir.files().empty());
 }
