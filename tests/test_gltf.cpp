@@ -304,6 +304,28 @@ TEST(Cli, HtmlReportsOfMeshAndValidateHoldTheirData)
     EXPECT_EQ(one["levels"][0]["name"], "p_L2.ply");
 }
 
+TEST(Cli, BenchHtmlPlotsEveryPeerAndShowsEveryLevel)
+{
+    TempDir dir;
+    ASSERT_EQ(test::runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
+    const test::CliResult r = test::runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" + dir.path("b.json") +
+                                           "' --html '" + dir.path("b.html") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json report = readJsonFile(dir.path("b.json"));
+    const nlohmann::json page = pageData(dir.path("b.html"));
+    EXPECT_EQ(page["peers"], report["peers"]);
+    // The levels shown are the peers' "pipetile Lk (level alone)" rows, validated as those were.
+    ASSERT_EQ(page["levels"].size(), 4u);
+    for (std::size_t k = 0; k < 4; ++k) {
+        const std::string method = "pipetile L" + std::to_string(k) + " (level alone)";
+        const auto peer = std::find_if(report["peers"].begin(), report["peers"].end(),
+                                       [&](const nlohmann::json& p) { return p["method"] == method; });
+        ASSERT_NE(peer, report["peers"].end()) << method;
+        EXPECT_EQ(page["levels"][k]["triangles"], (*peer)["triangles"]);
+        EXPECT_EQ(page["levels"][k]["validation"]["hausdorff_voxels"], (*peer)["hausdorff_voxels"]);
+    }
+}
+
 TEST(Cli, AnHtmlReportInAMissingFolderFailsBeforeAnyWork)
 {
     TempDir dir;

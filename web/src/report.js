@@ -68,15 +68,21 @@ function fillTable(levels) {
 
 // Hausdorff and RMS against triangles, one pair of series per kind of method (bench peers).
 function groupOf(method) {
-  if (method.startsWith('volumeToMesh')) return 'volumeToMesh (uniform, adaptive)';
+  if (method.startsWith('volumeToMesh')) return 'volumeToMesh adaptive';
   if (method.startsWith('uniform + meshopt')) return 'uniform + meshopt_simplify';
   if (method.includes('every slice')) return 'pipetile, every slice';
   return 'pipetile levels';
 }
 
 function drawPlot(peers) {
+  // Distances are measured to volumeToMesh's uniform isosurface, so that peer is the reference
+  // itself: at distance 0 up to rounding, it has no place on logarithmic axes.
+  const isReference = (p) => p.method === 'volumeToMesh uniform';
+  const reference = peers.filter(isReference);
+  document.getElementById('plot-note').textContent = reference.length
+    ? `Not plotted: volumeToMesh uniform (${reference[0].triangles} triangles), the reference the distances are measured to.` : '';
   const groups = new Map();
-  for (const p of peers) {
+  for (const p of peers.filter((p) => !isReference(p))) {
     const g = groupOf(p.method);
     if (!groups.has(g)) groups.set(g, []);
     groups.get(g).push(p);
@@ -92,7 +98,7 @@ function drawPlot(peers) {
   });
   document.getElementById('plot-section').hidden = false;
   const opts = {
-    width: 900, height: 420, series,
+    width: 900, height: 420, series, legend: { live: false },
     scales: { x: { time: false, distr: 3 }, y: { distr: 3 } },
     axes: [{ label: 'triangles' }, { label: 'distance to the isosurface (voxels)' }],
   };
@@ -116,7 +122,7 @@ function startViewer(meshes) {
   const centre = box.getCenter(new THREE.Vector3());
   const radius = box.getSize(new THREE.Vector3()).length() / 2 || 1;
   const camera = new THREE.PerspectiveCamera(40, view.clientWidth / view.clientHeight, radius / 100, radius * 100);
-  camera.position.copy(centre).add(new THREE.Vector3(0.9, 0.6, 1.4).multiplyScalar(radius * 1.6));
+  camera.position.copy(centre).add(new THREE.Vector3(0.9, 0.6, 1.4).multiplyScalar(radius * 1.3));
   const controls = new OrbitControls(camera, renderer.domElement);
   controls.target.copy(centre);
 

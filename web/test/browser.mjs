@@ -1,6 +1,7 @@
-// The HTML reports of `pipetile mesh --validate --html` and `pipetile validate --html`, opened from
-// disk in Debian's Chromium (headless, WebGL through SwiftShader): the view draws, the level slider
-// changes what is drawn to exactly that level's triangles, no console error, no request.
+// The HTML reports of `pipetile mesh --validate --html`, `pipetile validate --html` and `pipetile
+// bench --html`, opened from disk in Debian's Chromium (headless, WebGL through SwiftShader): the
+// view draws, the level slider changes what is drawn to exactly that level's triangles, bench's
+// plot draws a Hausdorff and an RMS series per kind of method, no console error, no request.
 // usage: node browser.mjs PIPETILE [SCREENSHOT.png]
 import { execFileSync } from 'node:child_process';
 import { mkdtempSync, rmSync } from 'node:fs';
@@ -20,9 +21,12 @@ const check = (ok, what) => {
 
 // The reports: every level of the phantom, validated; and one mesh file validated on its own.
 const meshPage = join(folder, 'mesh.html'), validatePage = join(folder, 'validate.html');
+const benchPage = join(folder, 'bench.html');
 run('mesh', '-o', join(folder, 'phantom.ply'), '--validate', '--html', meshPage);
 run('sample', 'phantom', '-o', join(folder, 'phantom.vdb'));
 run('validate', join(folder, 'phantom.vdb'), join(folder, 'phantom_L1.ply'), '--html', validatePage);
+run('sample', 'straight', '-o', join(folder, 'straight.vdb'));
+run('bench', join(folder, 'straight.vdb'), '--repeat', '1', '--html', benchPage);
 
 const browser = await chromium.launch({
   executablePath: process.env.PIPETILE_CHROMIUM || '/usr/bin/chromium',
@@ -30,8 +34,8 @@ const browser = await chromium.launch({
 });
 
 // Share of the canvas's pixels that differ from the background: 0 for a blank view.
-const drawnShare = () => {
-  const canvas = document.querySelector('#view canvas');
+const drawnShare = (selector = '#view canvas') => {
+  const canvas = document.querySelector(selector);
   const copy = document.createElement('canvas');
   copy.width = canvas.width, copy.height = canvas.height;
   const context = copy.getContext('2d');
@@ -74,6 +78,22 @@ async function checkPage(file, shot) {
   await page.locator('#wireframe').check();
   check((await page.evaluate(drawnShare)) > 0.005, `${name}: the wireframe draws`);
   await page.locator('#wireframe').uncheck();
+  const peers = await page.evaluate(() => JSON.parse(document.getElementById('pipetile-data').textContent).peers);
+  if (peers) {
+    // volumeToMesh adaptive, uniform + meshopt_simplify, pipetile's levels, pipetile on every slice:
+    // two series each (volumeToMesh uniform is the reference, at distance 0).
+    const series = await page.evaluate(() => window.pipetile.plot.series.length);
+    check(series === 1 + 2 * 4, `${name}: the plot has x and 8 series (has ${series})`);
+    // uPlot's canvas is transparent where it draws nothing.
+    const inked = await page.evaluate(() => {
+      const c = document.querySelector('#plot canvas');
+      const pixels = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let n = 0;
+      for (let i = 3; i < pixels.length; i += 4) if (pixels[i] > 0) ++n;
+      return n / (pixels.length / 4);
+    });
+    check(inked > 0.002, `${name}: the plot draws (${(100 * inked).toFixed(2)}% of its pixels)`);
+  }
   if (shot) await page.screenshot({ path: shot, fullPage: true });
   check(errors.length === 0, `${name}: no console error${errors.length ? ': ' + errors.join(' | ') : ''}`);
   check(requests.length === 0, `${name}: no request${requests.length ? ': ' + requests.join(' ') : ''}`);
@@ -83,6 +103,7 @@ async function checkPage(file, shot) {
 try {
   await checkPage(meshPage, screenshot);
   await checkPage(validatePage);
+  await checkPage(benchPage);
 } finally {
   await browser.close();
   rmSync(folder, { recursive: true, force: true });
