@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <ostream>
@@ -120,60 +119,66 @@ std::vector<float> floats(std::size_t count, int width, F value)
     return out;
 }
 
-tinygltf::Model buildModel(const NestedLevels& levels, const GlbOptions& options)
+// The vertex attributes, each one view over every vertex, as glTF stores them (float32, metres).
+struct VertexViews {
+    std::vector<float> positions, errors; // kept for the accessors' min and max
+    int position = -1, normal = -1, error = -1;
+};
+
+VertexViews addVertexViews(BinaryChunk& chunk, const NestedLevels& levels, const GlbOptions& options,
+                           const glm::dvec3& centre)
 {
-    tinygltf::Model model;
-    model.asset.version = "2.0";
-    model.asset.generator = "pipetile";
-    BinaryChunk chunk(model);
     const std::size_t n = levels.vertices.size();
     const double scale = options.metresPerUnit;
-    const glm::dvec3 centre = boxCentre(levels.vertices);
-
-    // One view per attribute over all vertices; each level's accessors take its prefix of them.
-    const std::vector<float> positions =
-        floats(n, 3, [&](std::size_t i, int c) { return (levels.vertices[i][c] - centre[c]) * scale; });
-    const int positionView = chunk.addView(positions, TINYGLTF_TARGET_ARRAY_BUFFER, 3 * sizeof(float));
-    std::vector<float> normals, errors;
-    int normalView = -1, errorView = -1;
-    if (!options.normals.empty()) {
-        normals = floats(n, 3, [&](std::size_t i, int c) { return options.normals[i][c]; });
-        normalView = chunk.addView(normals, TINYGLTF_TARGET_ARRAY_BUFFER, 3 * sizeof(float));
-    }
+    VertexViews views;
+    views.positions = floats(n, 3, [&](std::size_t i, int c) { return (levels.vertices[i][c] - centre[c]) * scale; });
+    views.position = chunk.addView(views.positions, TINYGLTF_TARGET_ARRAY_BUFFER, 3 * sizeof(float));
+    if (!options.normals.empty())
+        views.normal = chunk.addView(floats(n, 3, [&](std::size_t i, int c) { return options.normals[i][c]; }),
+                                     TINYGLTF_TARGET_ARRAY_BUFFER, 3 * sizeof(float));
     if (!options.vertexError.empty()) {
-        errors = floats(n, 1, [&](std::size_t i, int) { return options.vertexError[i] * scale; });
-        errorView = chunk.addView(errors, TINYGLTF_TARGET_ARRAY_BUFFER, sizeof(float));
+        views.errors = floats(n, 1, [&](std::size_t i, int) { return options.vertexError[i] * scale; });
+        views.error = chunk.addView(views.errors, TINYGLTF_TARGET_ARRAY_BUFFER, sizeof(float));
     }
+    return views;
+}
 
-    const std::size_t levelCount = levels.triangles.size();
-    for (std::size_t L = 0; L < levelCount; ++L) {
-        const std::size_t count = levels.vertexCounts[L];
-        tinygltf::Primitive primitive;
-        primitive.mode = TINYGLTF_MODE_TRIANGLES;
-        primitive.attributes["POSITION"] =
-            addAccessor(model, positionView, kFloat, TINYGLTF_TYPE_VEC3, count, &positions, 3);
-        if (normalView >= 0)
-            primitive.attributes["NORMAL"] = addAccessor(model, normalView, kFloat, TINYGLTF_TYPE_VEC3, count);
-        if (errorView >= 0)
-            primitive.attributes["_ERROR"] = addAccessor(model, errorView, kFloat, TINYGLTF_TYPE_SCALAR, count, &errors);
-        std::vector<std::uint32_t> indices;
-        indices.reserve(3 * levels.triangles[L].size());
-        for (const Triangle& t : levels.triangles[L]) indices.insert(indices.end(), t.begin(), t.end());
-        primitive.indices = addAccessor(model, chunk.addView(indices, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
-                                        kUnsignedInt, TINYGLTF_TYPE_SCALAR, indices.size());
-        tinygltf::Mesh mesh;
-        mesh.name = "L" + std::to_string(L);
-        mesh.primitives.push_back(primitive);
-        model.meshes.push_back(mesh);
+// Level L: a mesh whose attributes are the first vertexCounts[L] vertices of the shared views and
+// whose indices are its own, and a node placing it (the centre the positions are relative to).
+void addLevel(tinygltf::Model& model, BinaryChunk& chunk, const NestedLevels& levels, std::size_t L,
+              const VertexViews& views, const std::vector<double>& translation)
+{
+    const std::size_t count = levels.vertexCounts[L];
+    tinygltf::Primitive primitive;
+    primitive.mode = TINYGLTF_MODE_TRIANGLES;
+    primitive.attributes["POSITION"] =
+        addAccessor(model, views.position, kFloat, TINYGLTF_TYPE_VEC3, count, &views.positions, 3);
+    if (views.normal >= 0)
+        primitive.attributes["NORMAL"] = addAccessor(model, views.normal, kFloat, TINYGLTF_TYPE_VEC3, count);
+    if (views.error >= 0)
+        primitive.attributes["_ERROR"] = addAccessor(model, views.error, kFloat, TINYGLTF_TYPE_SCALAR, count, &views.errors);
+    std::vector<std::uint32_t> indices;
+    indices.reserve(3 * levels.triangles[L].size());
+    for (const Triangle& t : levels.triangles[L]) indices.insert(indices.end(), t.begin(), t.end());
+    primitive.indices = addAccessor(model, chunk.addView(indices, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER), kUnsignedInt,
+                                    TINYGLTF_TYPE_SCALAR, indices.size());
+    tinygltf::Mesh mesh;
+    mesh.name = "L" + std::to_string(L);
+    mesh.primitives.push_back(primitive);
+    model.meshes.push_back(mesh);
 
-        tinygltf::Node node;
-        node.name = mesh.name;
-        node.mesh = static_cast<int>(L);
-        node.translation = {centre.x * scale, centre.y * scale, centre.z * scale};
-        model.nodes.push_back(node);
-    }
+    tinygltf::Node node;
+    node.name = mesh.name;
+    node.mesh = static_cast<int>(L);
+    node.translation = translation;
+    model.nodes.push_back(node);
+}
 
-    // MSFT_lod on the finest node: the coarser nodes, finest first, and one coverage per level.
+// MSFT_lod on the finest node (the last): the coarser nodes, finest first, and one screen
+// coverage per level; the scene shows the finest node.
+void addLevelsOfDetail(tinygltf::Model& model)
+{
+    const std::size_t levelCount = model.nodes.size();
     tinygltf::Node& finest = model.nodes.back();
     tinygltf::Value::Array ids, coverage;
     for (std::size_t L = levelCount - 1; L-- > 0;) ids.emplace_back(static_cast<int>(L));
@@ -187,6 +192,20 @@ tinygltf::Model buildModel(const NestedLevels& levels, const GlbOptions& options
     scene.nodes.push_back(static_cast<int>(levelCount - 1));
     model.scenes.push_back(scene);
     model.defaultScene = 0;
+}
+
+tinygltf::Model buildModel(const NestedLevels& levels, const GlbOptions& options)
+{
+    tinygltf::Model model;
+    model.asset.version = "2.0";
+    model.asset.generator = "pipetile";
+    BinaryChunk chunk(model);
+    const glm::dvec3 centre = boxCentre(levels.vertices);
+    const VertexViews views = addVertexViews(chunk, levels, options, centre);
+    const glm::dvec3 translation = centre * options.metresPerUnit;
+    for (std::size_t L = 0; L < levels.triangles.size(); ++L)
+        addLevel(model, chunk, levels, L, views, {translation.x, translation.y, translation.z});
+    addLevelsOfDetail(model);
     return model;
 }
 

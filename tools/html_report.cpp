@@ -4,6 +4,8 @@
 
 #include <pipetile/error.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <sstream>
 
