@@ -2,6 +2,8 @@
 // of several repetitions (DESIGN.md, Measuring).
 
 #include "bench.h"
+#include "html_report.h"
+#include "report.h"
 
 #include <pipetile/pipetile.h>
 
@@ -107,7 +109,10 @@ int runBench(const BenchArgs& args)
     if (args.repeat < 1 || args.repeat > 1000) throw UsageError("--repeat must be between 1 and 1000");
     // Locked before the (long) measurements, so a concurrent bench writing the same report fails now.
     std::optional<OutputSet> outputs;
-    if (!args.report.empty()) outputs.emplace(std::vector<std::string>{args.report}, args.owner);
+    std::vector<std::string> targets;
+    for (const std::string& target : {args.report, args.html})
+        if (!target.empty()) targets.push_back(target);
+    if (!targets.empty()) outputs.emplace(targets, args.owner);
     const Volume volume = args.input.empty() ? samples::makeSample("phantom") : readVolume(args.input);
     const int repeat = args.repeat;
     MeshOptions options;
@@ -203,7 +208,7 @@ int runBench(const BenchArgs& args)
                 "| method | seconds | triangles | Hausdorff | RMS | pipetile, all levels, alternating (s) | "
                 "time vs pipetile |\n|---|---|---|---|---|---|---|\n");
     json peers = json::array();
-    auto peerRow = [&](const std::string& name, const Timing& t, const Timing& paired, const TriangleMesh& mesh) {
+    auto peerRow = [&](const std::string& name, const Timing& t, const Timing& paired, const TriangleMesh& mesh) -> Validation {
         const Validation v = validator.validate(mesh);
         json row = {{"method", name}, {"triangles", mesh.triangles.size()}};
         row.update(timingJson(t));
@@ -213,6 +218,7 @@ int runBench(const BenchArgs& args)
         peers.push_back(row);
         std::printf("| %s | %.4f | %zu | %.3f | %.3f | %.4f | %.1fx |\n", name.c_str(), t.median, mesh.triangles.size(),
                     v.symmetric.max / v.voxel, v.symmetric.rms / v.voxel, paired.median, t.median / paired.median);
+        return v;
     };
     auto peer = [&](const std::string& name, const std::function<TriangleMesh()>& make) {
         TriangleMesh mesh;
@@ -226,9 +232,20 @@ int runBench(const BenchArgs& args)
     for (const LevelMesh& level : levels)
         peer("uniform + meshopt_simplify to L" + std::to_string(level.level),
              [&] { return simplified(isosurface(volume, 0.0), level.mesh.triangles.size()); });
-    for (const LevelMesh& level : levels) {
+    // pipetile's levels nested over one vertex array, the same meshes renumbered, for the page's .glb.
+    const NestedLevels nested = nestLevels(levels);
+    tools::HtmlReport html;
+    GlbOptions glb;
+    for (std::size_t k = 0; k < levels.size(); ++k) {
+        const LevelMesh& level = levels[k];
         Timing t{level.seconds, level.seconds, level.seconds};
-        peerRow("pipetile L" + std::to_string(level.level) + " (level alone)", t, pipeline, level.mesh);
+        const Validation v =
+            peerRow("pipetile L" + std::to_string(level.level) + " (level alone)", t, pipeline, tools::nestedMesh(nested, k));
+        json row = levelReport(level, /*topology=*/true);
+        row["validation"] = validationReport(v);
+        html.levels.push_back(row);
+        glb.vertexError = v.vertexDistance; // the finest level's, at the end: every vertex of the array
+        html.voxel = v.voxel;
     }
     {
         // What skipping slices buys: the same levels on every slice, as the paper builds them.
@@ -245,10 +262,15 @@ int runBench(const BenchArgs& args)
     report["pipetile"] = timingJson(pipeline);
     std::printf("\npipetile mesh, all %d levels: %.4f s (min %.4f, max %.4f)\n", options.levels, pipeline.median, pipeline.min,
                 pipeline.max);
-    if (outputs) {
-        outputs->write(args.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
-        outputs->commit();
+    if (!args.report.empty()) outputs->write(args.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
+    if (!args.html.empty()) {
+        html.title = "pipetile bench: " + volume.source();
+        html.subtitle = "grid '" + volume.gridName() + "', median of " + std::to_string(repeat) +
+                        " runs; distances to the uniform isosurface";
+        html.peers = peers;
+        tools::writeHtmlReport(*outputs, args.html, html, nested, glb);
     }
+    if (outputs) outputs->commit();
     return 0;
 }
 

@@ -7,8 +7,12 @@ cd "$(dirname "$0")/.."
 
 packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libglm-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libmeshoptimizer-dev
+          libtinygltf-dev
           libopenvdb-tools libboost-python-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
-          python3-openvdb python3-meshio python3-dask python3-distributed)
+          python3-openvdb python3-meshio python3-dask python3-distributed chromium)
+# The HTML report's script is bundled with npm at build time, and its test drives Chromium with
+# node; a node that brings its own npm (NodeSource's) is kept, else Debian's nodejs and npm come.
+command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
 if ! dpkg -s "${packages[@]}" >/dev/null 2>&1; then
   sudo=""; [ "$(id -u)" = 0 ] || sudo=sudo
   $sudo apt-get update -q

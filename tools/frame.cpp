@@ -2,6 +2,7 @@
 
 #include "frame.h"
 
+#include "html_report.h"
 #include "report.h"
 
 #include <pipetile/error.h>
@@ -90,6 +91,8 @@ std::string levelPath(const std::string& output, int level)
 bool outputsExist(const std::string& output, const std::string& report, int levels)
 {
     std::error_code ec;
+    if (isGlbPath(output)) levels = 0;
+    if (isGlbPath(output) && !std::filesystem::exists(output, ec)) return false;
     for (int level = 0; level < levels; ++level)
         if (!std::filesystem::exists(levelPath(output, level), ec)) return false;
     return report.empty() || std::filesystem::exists(report, ec);
@@ -146,14 +149,24 @@ json meshFrame(const FrameJob& job)
     checkMeshOptions(job.options);
 
     // Fail before any work on outputs that could never be written.
-    if (!isMeshExtension(job.output))
-        throw UsageError("-o '" + job.output + "': unknown mesh format; use .ply .obj .stl .off");
+    const bool glb = isGlbPath(job.output);
+    if (!glb && !isMeshExtension(job.output))
+        throw UsageError("-o '" + job.output + "': unknown mesh format; use .ply .obj .stl .off .glb");
+    if (job.metresPerUnit != 1.0 && !glb)
+        throw UsageError("--units scales a .glb (glTF is in metres); '" + job.output +
+                         "' keeps the grid's world units as they are");
     checkWritableTarget(job.output, "meshes");
     if (!job.report.empty()) checkWritableTarget(job.report, "report");
+    if (!job.html.empty()) {
+        checkHtmlReportAvailable(job.html);
+        checkWritableTarget(job.html, "HTML report");
+    }
     std::vector<NamedPath> outputs;
-    for (int level = 0; level < job.options.levels; ++level)
+    if (glb) outputs.push_back({job.output, "levels (.glb)"});
+    for (int level = 0; level < job.options.levels && !glb; ++level)
         outputs.push_back({levelPath(job.output, level), "mesh of level " + std::to_string(level)});
     if (!job.report.empty()) outputs.push_back({job.report, "report"});
+    if (!job.html.empty()) outputs.push_back({job.html, "HTML report"});
     refuseClobbering({{job.input, "input volume"}}, outputs);
     std::unique_ptr<OutputSet> files = openOutputs(outputs, job.owner, job.notify);
 
@@ -167,19 +180,37 @@ json meshFrame(const FrameJob& job)
     const std::vector<LevelMesh> levels = buildLevels(reconstruction, job);
 
     // Each level to its temporary file; they replace the earlier files together, with the report.
+    // A .glb holds every level over one vertex array (written below, with the validation's errors).
+    const auto levelFile = [&](int level) { return glb ? job.output : levelPath(job.output, level); };
     double rounding = 0.0;
     for (const LevelMesh& level : levels)
-        rounding = std::max(rounding, writeMesh(level.mesh, *files, levelPath(job.output, level.level)));
+        if (!glb) rounding = std::max(rounding, writeMesh(level.mesh, *files, levelFile(level.level)));
     warnIfRounded(job.output, rounding, volume.smallestVoxel(), job.notify);
+    const bool nest = glb || !job.html.empty();
+    const NestedLevels nested = nest ? nestLevels(levels) : NestedLevels{};
 
     json report = meshReport(volume, reconstruction);
     for (const LevelMesh& level : levels) {
         // The level's own topology is a linear pass over its triangles: only when a report is asked for.
-        report["levels"].push_back(levelReport(level, !job.report.empty()));
-        report["levels"].back()["file"] = levelPath(job.output, level.level);
+        report["levels"].push_back(levelReport(level, !job.report.empty() || !job.html.empty()));
+        report["levels"].back()["file"] = levelFile(level.level);
     }
     report["seconds"] = std::chrono::duration<double>(Clock::now() - start).count();
-    if (job.beforeCommit) job.beforeCommit(volume, reconstruction, levels, report);
+    GlbOptions glbOptions;
+    glbOptions.metresPerUnit = job.metresPerUnit;
+    if (job.beforeCommit) job.beforeCommit(volume, reconstruction, levels, nested, report, glbOptions);
+    if (glb) writeGlb(nested, *files, job.output, glbOptions);
+    if (!job.html.empty()) {
+        const ReconstructionStats& stats = reconstruction.stats();
+        HtmlReport html;
+        html.title = "pipetile mesh: " + volume.source();
+        html.subtitle = format("grid '%s' (%s, iso %g), axis %s, %d slices, %d tubes", volume.gridName().c_str(),
+                               toString(volume.volumeClass()), volume.iso(), axisName(reconstruction.plan().axis),
+                               stats.slices, stats.tubes);
+        html.levels = report["levels"];
+        html.voxel = volume.smallestVoxel();
+        writeHtmlReport(*files, job.html, html, nested, glbOptions);
+    }
     if (!job.report.empty()) files->write(job.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
     files->commit();
     files.reset(); // releases and removes the lock files: nothing of this run is left to do

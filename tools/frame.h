@@ -3,6 +3,7 @@
 // Python module (pipetile.dask), so that both write the same bytes.
 #pragma once
 
+#include <pipetile/gltf.h>
 #include <pipetile/multires.h>
 #include <pipetile/output_set.h>
 #include <pipetile/volume.h>
@@ -22,9 +23,9 @@ std::string levelPath(const std::string& output, int level);
 /// @throw Error naming `path` if its folder does not exist; `what` names the file ("meshes").
 void checkWritableTarget(const std::string& path, const char* what);
 
-/// Whether every output of a run exists: the `levels` level files of `output` and the report
-/// (unless empty). A run's files are committed together, the report last, so a stopped run left
-/// either all of its own or none (--skip-existing).
+/// Whether every output of a run exists: the `levels` level files of `output` (or the one .glb)
+/// and the report (unless empty). A run's files are committed together, the report last, so a
+/// stopped run left either all of its own or none (--skip-existing).
 bool outputsExist(const std::string& output, const std::string& report, int levels);
 
 /// A line for the user that is not an error: `kind` is "note" or "warning"; the CLI prints
@@ -56,6 +57,8 @@ struct FrameJob {
     std::string input;          // the .vdb file (empty with `read` set: a sample), for the clobbering check
     std::string output;         // mesh path; level k goes to levelPath(output, k)
     std::string report;         // JSON report path; empty: none
+    std::string html;           // HTML report path; empty: none
+    double metresPerUnit = 1.0; // a .glb's scale: the grid's world unit in metres (glTF's unit)
     std::string owner;          // who writes (the command line), for a concurrent run's message
     MeshOptions options;        // checked by meshFrame
     VolumeOptions volume;       // grid and isovalue, for reading `input`
@@ -64,8 +67,11 @@ struct FrameJob {
     Notify notify;                                   // notes and warnings; must be set
     std::function<void(int level, int levels)> levelDone; // progress after each level; may be empty
     /// Before the commit, with the report complete but for validation: prints, validates (adding
-    /// to the report). May be empty.
-    std::function<void(const Volume&, const Reconstruction&, const std::vector<LevelMesh>&, nlohmann::json&)> beforeCommit;
+    /// to the report, and for a .glb or an HTML report each vertex's error, in the order of
+    /// `nested`, to `glb`). `nested` is empty unless a .glb or an HTML report is written. May be empty.
+    std::function<void(const Volume&, const Reconstruction&, const std::vector<LevelMesh>&, const NestedLevels& nested,
+                       nlohmann::json& report, GlbOptions& glb)>
+        beforeCommit;
     /// After the commit, the lock files gone, with the volume and the levels still alive: a
     /// program that is done may end here without tearing them down. May be empty.
     std::function<void()> committed;

@@ -5,6 +5,7 @@
 
 #include "bench.h"
 #include "frame.h"
+#include "html_report.h"
 #include "phantoms.h"
 #include "progress.h"
 #include "report.h"
@@ -99,8 +100,31 @@ void printValidationRow(const std::string& label, const pipetile::Validation& v)
 }
 
 
+std::string formatNumber(double v)
+{
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+// --units: the grid's world unit in metres (glTF's unit).
+double metresPerUnit(const std::string& units)
+{
+    static const std::map<std::string, double> kUnits = {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"um", 1e-6}};
+    return kUnits.at(units);
+}
+
+// --html: refused before any work when this build has no page, or its folder is missing.
+void checkHtmlTarget(const std::string& path)
+{
+    if (path.empty()) return;
+    pipetile::tools::checkHtmlReportAvailable(path);
+    checkWritableTarget(path, "HTML report");
+}
+
 struct MeshArgs {
-    std::string input, output, grid, report, frames, summary;
+    std::string input, output, grid, report, frames, summary, html;
+    std::string units = "m"; // the grid's world unit, for the .glb (glTF is in metres)
     std::optional<double> iso;
     std::string axis = "auto";
     double spacing = 2.0;
@@ -137,6 +161,7 @@ pipetile::tools::FrameJob frameJob(const MeshArgs& args, const std::string& inpu
     options.everySlice = args.everySlice;
     options.tiler = args.tiler == "optimal" ? pipetile::TilerKind::Optimal
                   : args.tiler == "greedy"  ? pipetile::TilerKind::Greedy : pipetile::TilerKind::ContourTree;
+    job.metresPerUnit = metresPerUnit(args.units);
     job.volume.gridName = args.grid;
     job.volume.iso = args.iso;
     job.notify = printNote;
@@ -144,21 +169,24 @@ pipetile::tools::FrameJob frameJob(const MeshArgs& args, const std::string& inpu
 }
 
 void printLevels(const pipetile::Volume& volume, const pipetile::Reconstruction& reconstruction,
-                 const std::vector<pipetile::LevelMesh>& levels, const std::string& output)
+                 const std::vector<pipetile::LevelMesh>& levels, const json& report)
 {
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
     std::printf("%s  grid '%s' (%s, iso %g), axis %s, %d slices, %d contours in %d tubes\n", volume.source().c_str(),
                 volume.gridName().c_str(), pipetile::toString(volume.volumeClass()), volume.iso(),
                 pipetile::tools::axisName(reconstruction.plan().axis), stats.slices, stats.contours, stats.tubes);
     std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
-    for (const pipetile::LevelMesh& level : levels)
-        std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", level.level, level.rays, level.mesh.vertices.size(),
-                    level.mesh.triangles.size(), level.seconds, pipetile::tools::levelPath(output, level.level).c_str());
+    for (std::size_t k = 0; k < levels.size(); ++k)
+        std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", levels[k].level, levels[k].rays, levels[k].mesh.vertices.size(),
+                    levels[k].mesh.triangles.size(), levels[k].seconds,
+                    report["levels"][k]["file"].get<std::string>().c_str());
 }
 
-// Adds a validation block to every level of the report; prints the table when `print`.
-void validateLevels(const pipetile::Volume& volume, const std::vector<pipetile::LevelMesh>& levels, json& report,
-                    int threads, bool print)
+// Adds a validation block to every level of the report; prints the table when `print`. With
+// `nested` levels (a .glb or an HTML report), each level is validated as its nested mesh, the same
+// mesh renumbered, so that the finest level's vertex errors fit the .glb's vertex array.
+void validateLevels(const pipetile::Volume& volume, const std::vector<pipetile::LevelMesh>& levels,
+                    const pipetile::NestedLevels& nested, json& report, pipetile::GlbOptions& glb, int threads, bool print)
 {
     // One reference isosurface for all levels; its time is the same-run peer of ours.
     const pipetile::Validator validator(volume, {1.0, threads});
@@ -167,8 +195,11 @@ void validateLevels(const pipetile::Volume& volume, const std::vector<pipetile::
                     validator.referenceSeconds());
         printValidationHeader();
     }
+    const bool nest = !nested.vertexCounts.empty();
     for (std::size_t k = 0; k < levels.size(); ++k) {
-        const pipetile::Validation v = validator.validate(levels[k].mesh);
+        const pipetile::Validation v = nest ? validator.validate(pipetile::tools::nestedMesh(nested, k))
+                                            : validator.validate(levels[k].mesh);
+        if (nest && k + 1 == levels.size()) glb.vertexError = v.vertexDistance;
         report["levels"][k]["validation"] = pipetile::tools::validationReport(v);
         if (print) printValidationRow("L" + std::to_string(levels[k].level), v);
     }
@@ -195,11 +226,13 @@ int runMesh(const MeshArgs& args)
         progress.emplace(args.levels, "levels", true);
         job.levelDone = [&](int level, int) { progress->step("level " + std::to_string(level - 1)); };
     }
+    job.html = args.html;
     job.beforeCommit = [&](const pipetile::Volume& volume, const pipetile::Reconstruction& reconstruction,
-                           const std::vector<pipetile::LevelMesh>& levels, json& report) {
+                           const std::vector<pipetile::LevelMesh>& levels, const pipetile::NestedLevels& nested,
+                           json& report, pipetile::GlbOptions& glb) {
         progress.reset();
-        printLevels(volume, reconstruction, levels, output);
-        if (args.validate) validateLevels(volume, levels, report, args.threads, true);
+        printLevels(volume, reconstruction, levels, report);
+        if (args.validate) validateLevels(volume, levels, nested, report, glb, args.threads, true);
     };
     job.committed = [] { exitNow(0); };
     pipetile::tools::meshFrame(job);
@@ -207,7 +240,7 @@ int runMesh(const MeshArgs& args)
 }
 
 struct ValidateArgs {
-    std::string input, mesh, grid, report, colors, owner;
+    std::string input, mesh, grid, report, colors, html, owner;
     std::optional<double> iso;
     int threads = 0;
 };
@@ -220,9 +253,11 @@ int runValidate(const ValidateArgs& args)
             throw pipetile::UsageError("--error-colors '" + args.colors + "': the coloured mesh is written as .ply");
         checkWritableTarget(args.colors, "coloured mesh");
     }
+    checkHtmlTarget(args.html);
     std::vector<NamedPath> outputs;
     if (!args.colors.empty()) outputs.push_back({args.colors, "coloured mesh"});
     if (!args.report.empty()) outputs.push_back({args.report, "report"});
+    if (!args.html.empty()) outputs.push_back({args.html, "HTML report"});
     refuseClobbering({{args.input, "input volume"}, {args.mesh, "mesh to validate"}}, outputs);
     const std::unique_ptr<pipetile::OutputSet> files = openOutputs(outputs, args.owner, printNote);
     pipetile::VolumeOptions volumeOptions;
@@ -253,6 +288,21 @@ int runValidate(const ValidateArgs& args)
                        {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
                        {"validation", pipetile::tools::validationReport(v)}};
         writeJson(report, *files, args.report);
+    }
+    if (!args.html.empty()) {
+        // The mesh as the page's one level, its vertices coloured by their distance.
+        const pipetile::NestedLevels one{mesh.vertices, {mesh.vertices.size()}, {mesh.triangles}};
+        pipetile::tools::HtmlReport html;
+        html.title = "pipetile validate: " + args.mesh;
+        html.subtitle = "against the isosurface of " + args.input + ", grid '" + volume.gridName() + "' at iso " +
+                        formatNumber(volume.iso());
+        html.levels = json::array({{{"name", std::filesystem::path(args.mesh).filename().string()},
+                                    {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
+                                    {"seconds", v.seconds}, {"validation", pipetile::tools::validationReport(v)}}});
+        html.voxel = v.voxel;
+        pipetile::GlbOptions glb;
+        glb.vertexError = v.vertexDistance;
+        pipetile::tools::writeHtmlReport(*files, args.html, html, one, glb);
     }
     files->commit();
     if (!args.colors.empty()) std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
@@ -316,13 +366,6 @@ std::string commandLine(int argc, char** argv)
     return line;
 }
 
-std::string formatNumber(double v)
-{
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
-
 // What to tell a user whose run ran out of memory (std::bad_alloc, or a container asked for more
 // than it can hold): which run, and what makes it smaller.
 std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate)
@@ -368,8 +411,9 @@ pipetile::tools::FrameOutcome meshSequenceFrame(const MeshArgs& args, pipetile::
     };
     job.read = [&] { return volume.get(); };
     job.beforeCommit = [&](const pipetile::Volume& v, const pipetile::Reconstruction&,
-                           const std::vector<pipetile::LevelMesh>& levels, json& report) {
-        if (args.validate) validateLevels(v, levels, report, args.threads, false);
+                           const std::vector<pipetile::LevelMesh>& levels, const pipetile::NestedLevels& nested,
+                           json& report, pipetile::GlbOptions& glb) {
+        if (args.validate) validateLevels(v, levels, nested, report, glb, args.threads, false);
     };
     MeshArgs frameArgs = args;
     frameArgs.input = job.input;
@@ -407,6 +451,8 @@ int runSequence(const MeshArgs& args, const pipetile::tools::FramePattern& input
     const std::string defaultOutput = std::filesystem::path(input.text()).stem().string() + ".ply";
     const pipetile::tools::FramePattern output = *outputPattern(args.output.empty() ? defaultOutput : args.output, "-o");
     const std::optional<pipetile::tools::FramePattern> report = outputPattern(args.report, "--report");
+    if (!args.html.empty())
+        throw pipetile::UsageError("--html writes one page for one input; a sequence has a report per frame (--report)");
     const std::vector<int> frames = args.frames.empty() ? input.existingFrames() : pipetile::tools::parseFrameRange(args.frames);
     if (frames.empty())
         throw pipetile::Error("'" + input.text() + "': no file matches; check the name, or give --frames A-B");
@@ -459,7 +505,11 @@ int main(int argc, char** argv)
     MeshArgs meshArgs;
     CLI::App* mesh = app.add_subcommand("mesh", "Mesh a .vdb volume (default: the bundled phantom) at several levels");
     mesh->add_option("INPUT", meshArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
-    mesh->add_option("-o,--output", meshArgs.output, "output mesh; level k goes to NAME_L<k>.EXT (.ply .obj .stl .off)");
+    mesh->add_option("-o,--output", meshArgs.output,
+                     "output mesh; level k goes to NAME_L<k>.EXT (.ply .obj .stl .off), or all levels into one .glb");
+    mesh->add_option("--units", meshArgs.units, "the grid's world unit, for the .glb (glTF is in metres)")
+        ->check(CLI::IsMember({"m", "cm", "mm", "um"}));
+    mesh->add_option("--html", meshArgs.html, "write an HTML report: the levels in 3D, their table");
     mesh->add_option("--grid", meshArgs.grid, "grid name (default: the first float grid)");
     mesh->add_option("--iso", meshArgs.iso, "isovalue (default: 0 for level sets; fog: halfway from background to max)");
     mesh->add_option("--axis", meshArgs.axis, "slicing axis")->check(CLI::IsMember({"x", "y", "z", "auto"}));
@@ -484,6 +534,7 @@ int main(int argc, char** argv)
     CLI::App* bench = app.add_subcommand("bench", "Time pipetile against its baselines and volumeToMesh on one grid");
     bench->add_option("INPUT", benchArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
     bench->add_option("--report", benchArgs.report, "write the figures as JSON");
+    bench->add_option("--html", benchArgs.html, "write an HTML report: the levels in 3D, error against triangles");
     bench->add_option("--repeat", benchArgs.repeat, "repetitions per figure (median reported)")->check(CLI::Range(1, 1000));
     bench->add_option("--threads", benchArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
@@ -495,6 +546,7 @@ int main(int argc, char** argv)
     validate->add_option("--iso", validateArgs.iso, "isovalue (default as for mesh)");
     validate->add_option("--report", validateArgs.report, "write a JSON report");
     validate->add_option("--error-colors", validateArgs.colors, "write the mesh as .ply coloured by its distance");
+    validate->add_option("--html", validateArgs.html, "write an HTML report: the mesh in 3D coloured by its distance");
     validate->add_option("--threads", validateArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
     std::string sampleName, sampleOutput;
@@ -537,7 +589,11 @@ int main(int argc, char** argv)
         }
         if (validate->parsed()) return runValidate(validateArgs);
         if (bench->parsed()) {
-            if (!benchArgs.report.empty()) refuseClobbering({{benchArgs.input, "input volume"}}, {{benchArgs.report, "report"}});
+            std::vector<NamedPath> outputs;
+            if (!benchArgs.report.empty()) outputs.push_back({benchArgs.report, "report"});
+            if (!benchArgs.html.empty()) outputs.push_back({benchArgs.html, "HTML report"});
+            refuseClobbering({{benchArgs.input, "input volume"}}, outputs);
+            checkHtmlTarget(benchArgs.html);
             return pipetile::tools::runBench(benchArgs);
         }
         if (sample->parsed()) return runSample(sampleName, sampleOutput, sampleList);

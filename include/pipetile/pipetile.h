@@ -4,6 +4,7 @@
 #include <pipetile/caps.h>
 #include <pipetile/contour.h>
 #include <pipetile/error.h>
+#include <pipetile/gltf.h>
 #include <pipetile/graph.h>
 #include <pipetile/mesh.h>
 #include <pipetile/mesh_io.h>
