@@ -3,6 +3,7 @@
 #include <pipetile/caps.h>
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
+#include <pipetile/quality.h>
 #include <pipetile/toroidal.h>
 
 #include <glm/geometric.hpp>
@@ -1241,6 +1242,7 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             }
         }
     }
+    result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     return result;
 }
 

@@ -139,7 +139,7 @@ TEST(MeshIo, BinaryStlSaysHowMuchFloat32Rounded)
     for (glm::dvec3& v : far.vertices) v.x = 1e6 + 0.02;
     EXPECT_NEAR(writeMesh(far, dir.path("far.stl")), 0.02, 1e-9);
     // Text STL writes doubles.
-    EXPECT_EQ(writeMesh(far, dir.path("far_text.stl"), MeshWriteOptions{false, {}}), 0.0);
+    EXPECT_EQ(writeMesh(far, dir.path("far_text.stl"), MeshWriteOptions{false, {}, {}, {}}), 0.0);
 }
 
 TEST(MeshIo, ReadingGarbageIsAnError)

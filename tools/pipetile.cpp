@@ -236,8 +236,11 @@ int runMesh(const MeshArgs& args)
 
     // Each level to its temporary file; they replace the earlier files together, with the report.
     double rounding = 0.0;
-    for (const pipetile::LevelMesh& level : levels)
-        rounding = std::max(rounding, pipetile::writeMesh(level.mesh, *files, levelPath(output, level.level)));
+    for (const pipetile::LevelMesh& level : levels) {
+        pipetile::MeshWriteOptions write;
+        write.normals = pipetile::vertexNormals(volume, level.mesh);
+        rounding = std::max(rounding, pipetile::writeMesh(level.mesh, *files, levelPath(output, level.level), write));
+    }
     warnIfRounded(output, rounding, volume.smallestVoxel());
 
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
@@ -312,6 +315,8 @@ int runValidate(const ValidateArgs& args)
     if (!args.colors.empty()) {
         pipetile::MeshWriteOptions options;
         options.colors = pipetile::errorColors(v.vertexDistance, v.voxel);
+        options.quality = v.vertexDistance;
+        options.normals = pipetile::vertexNormals(volume, mesh);
         pipetile::writeMesh(mesh, *files, args.colors, options);
     }
     if (!args.report.empty()) {

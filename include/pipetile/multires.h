@@ -69,6 +69,7 @@ struct LevelMesh {
     long long ambiguousSectors = 0; // sectors with more than one F edge, over all contours
     long long crossings = 0;       // vertices on contours (the rest are end-cap apexes)
     int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
+    long long flips = 0;           // edges flipped to remove needles (quality.h, flipNeedles)
 };
 
 /// What the level-independent pass found; degenerate geometry is counted here, not thrown.
