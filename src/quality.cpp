@@ -135,7 +135,7 @@ private:
     static constexpr double kSamePlane = 1e-6;
 
     // How far a flip may move the surface, in voxels (segmentDistance).
-    static constexpr double kMaxMoveVoxels = 0.25;
+    static constexpr double kMaxMoveVoxels = 0.1;
 
     bool samePlane(std::uint32_t a, std::uint32_t b) const { return std::abs(mPlaneW[a] - mPlaneW[b]) < kSamePlane; }
 
