@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <ostream>
+#include <type_traits>
 
 namespace pipetile {
 
@@ -76,27 +77,45 @@ void checkWritable(const TriangleMesh& mesh, const std::string& path)
                             " of " + std::to_string(mesh.vertices.size()) + "; nothing written");
 }
 
-// PLY with double coordinates (binary little-endian, or text), optional uchar colours.
-void writePly(std::ostream& out, const TriangleMesh& mesh, const std::vector<glm::dvec3>& colors, bool binary)
+// What a file holds per vertex besides its position: each empty, or one entry per vertex.
+struct VertexData {
+    const std::vector<glm::dvec3>& colors;
+    const std::vector<glm::dvec3>& normals;
+    const std::vector<double>& quality;
+};
+
+// PLY with double coordinates (binary little-endian, or text), then optional float normals, uchar
+// colours and a float quality, in that order.
+void writePly(std::ostream& out, const TriangleMesh& mesh, const VertexData& data, bool binary)
 {
     out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment written by pipetile\n"
         << "element vertex " << mesh.vertices.size() << "\nproperty double x\nproperty double y\nproperty double z\n";
-    if (!colors.empty()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    if (!data.normals.empty()) out << "property float nx\nproperty float ny\nproperty float nz\n";
+    if (!data.colors.empty()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    if (!data.quality.empty()) out << "property float quality\n";
     out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
+    const bool normals = !data.normals.empty(), colors = !data.colors.empty(), quality = !data.quality.empty();
     for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
         const glm::dvec3& v = mesh.vertices[i];
         if (binary) {
             putBinary(out, v.x), putBinary(out, v.y), putBinary(out, v.z);
-        } else {
-            putPoint(out, v, colors.empty() ? '\n' : ' ');
+            if (normals)
+                for (int axis = 0; axis < 3; ++axis) putBinary(out, static_cast<float>(data.normals[i][axis]));
+            if (colors)
+                for (const std::uint8_t byte : colorBytes(data.colors[i])) putBinary(out, byte);
+            if (quality) putBinary(out, static_cast<float>(data.quality[i]));
+            continue;
         }
-        if (colors.empty()) continue;
-        const std::array<std::uint8_t, 3> c = colorBytes(colors[i]);
-        if (binary) {
-            for (const std::uint8_t byte : c) putBinary(out, byte);
-        } else {
-            putText(out, int(c[0]), ' '), putText(out, int(c[1]), ' '), putText(out, int(c[2]), '\n');
+        // Text: the values of a vertex on one line, floats as the shortest decimals of the float.
+        putPoint(out, v, normals || colors || quality ? ' ' : '\n');
+        if (normals)
+            for (int axis = 0; axis < 3; ++axis)
+                putText(out, static_cast<float>(data.normals[i][axis]), axis < 2 || colors || quality ? ' ' : '\n');
+        if (colors) {
+            const std::array<std::uint8_t, 3> c = colorBytes(data.colors[i]);
+            putText(out, int(c[0]), ' '), putText(out, int(c[1]), ' '), putText(out, int(c[2]), quality ? ' ' : '\n');
         }
+        if (quality) putText(out, static_cast<float>(data.quality[i]), '\n');
     }
     for (const Triangle& t : mesh.triangles) {
         if (binary) {
@@ -109,18 +128,33 @@ void writePly(std::ostream& out, const TriangleMesh& mesh, const std::vector<glm
     }
 }
 
-// OBJ: "v x y z" (with "r g b" in [0, 1] when coloured, as MeshLab and Blender read it), faces 1-based.
-void writeObj(std::ostream& out, const TriangleMesh& mesh, const std::vector<glm::dvec3>& colors)
+// OBJ: "v x y z" (with "r g b" in [0, 1] when coloured, as MeshLab and Blender read it), then
+// "vn" per vertex when there are normals, so that face corners read "v//v"; faces 1-based.
+void writeObj(std::ostream& out, const TriangleMesh& mesh, const VertexData& data)
 {
     out << "# written by pipetile\n";
     for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
         out << "v ";
-        putPoint(out, mesh.vertices[i], colors.empty() ? '\n' : ' ');
-        if (!colors.empty()) putPoint(out, glm::clamp(colors[i], 0.0, 1.0), '\n');
+        putPoint(out, mesh.vertices[i], data.colors.empty() ? '\n' : ' ');
+        if (!data.colors.empty()) putPoint(out, glm::clamp(data.colors[i], 0.0, 1.0), '\n');
     }
+    for (const glm::dvec3& n : data.normals) {
+        out << "vn ";
+        putText(out, static_cast<float>(n.x), ' '), putText(out, static_cast<float>(n.y), ' ');
+        putText(out, static_cast<float>(n.z), '\n');
+    }
+    const bool normals = !data.normals.empty();
     for (const Triangle& t : mesh.triangles) {
-        out << "f ";
-        putText(out, t[0] + 1ULL, ' '), putText(out, t[1] + 1ULL, ' '), putText(out, t[2] + 1ULL, '\n');
+        out << 'f';
+        for (int k = 0; k < 3; ++k) {
+            const char end = k == 2 ? '\n' : ' ';
+            out << ' ';
+            if (normals) {
+                putText(out, t[k] + 1ULL, '/');
+                out << '/';
+            }
+            putText(out, t[k] + 1ULL, end);
+        }
     }
 }
 
@@ -204,14 +238,17 @@ double writeMesh(const TriangleMesh& mesh, OutputSet& outputs, const std::string
     if (!isMeshExtension(path))
         throw Error("'" + path + "': unknown mesh format '" + ext + "'; use one of .ply .obj .stl .off");
     checkWritable(mesh, path);
-    static const std::vector<glm::dvec3> kNoColors;
-    const std::vector<glm::dvec3>& colors =
-        options.colors.size() == mesh.vertices.size() && !mesh.vertices.empty() ? options.colors : kNoColors;
+    // Per-vertex data that does not match the vertices is left out, as the options say (optional).
+    auto perVertex = [&](const auto& values) -> decltype(values) {
+        static const std::remove_reference_t<decltype(values)> kNone;
+        return values.size() == mesh.vertices.size() && !mesh.vertices.empty() ? values : kNone;
+    };
+    const VertexData data{perVertex(options.colors), perVertex(options.normals), perVertex(options.quality)};
     double rounding = 0.0;
     outputs.write(path, [&](std::ostream& out) {
-        if (ext == ".ply") writePly(out, mesh, colors, options.binary);
-        if (ext == ".obj") writeObj(out, mesh, colors);
-        if (ext == ".off") writeOff(out, mesh, colors);
+        if (ext == ".ply") writePly(out, mesh, data, options.binary);
+        if (ext == ".obj") writeObj(out, mesh, data);
+        if (ext == ".off") writeOff(out, mesh, data.colors);
         if (ext == ".stl") rounding = writeStl(out, mesh, options.binary);
     });
     return rounding;

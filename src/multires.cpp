@@ -3,6 +3,7 @@
 #include <pipetile/caps.h>
 #include <pipetile/error.h>
 #include <pipetile/multires.h>
+#include <pipetile/quality.h>
 #include <pipetile/toroidal.h>
 
 #include <glm/geometric.hpp>
@@ -1433,6 +1434,7 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
         }
     }
+    result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     return result;
 }
 

@@ -1,6 +1,7 @@
 // pipetile — validate: checks of a mesh on its own (topology) and against the volume it came from.
 
 #include <pipetile/error.h>
+#include <pipetile/quality.h>
 #include <pipetile/validate.h>
 #include <pipetile/volume_grid.h>
 
@@ -139,6 +140,7 @@ TriangleQuality measureQuality(const TriangleMesh& mesh)
         const double longest = std::max(la, std::max(lb, lc));
         if (!(area > 1e-12 * longest * longest)) {
             ++q.degenerate;
+            ++q.needles;
             continue;
         }
         // The smallest angle faces the shortest edge; the law of cosines, clamped for rounding.
@@ -147,6 +149,7 @@ TriangleQuality measureQuality(const TriangleMesh& mesh)
         };
         const double smallest = std::min(angle(la, lb, lc), std::min(angle(lb, lc, la), angle(lc, la, lb)));
         q.smallestAngle = std::min(q.smallestAngle, smallest * kDegrees);
+        if (smallest * kDegrees < kNeedleDegrees) ++q.needles;
         const double altitude = 2.0 * area / longest;
         q.largestAspect = std::max(q.largestAspect, longest / altitude * (std::sqrt(3.0) / 2.0));
     }

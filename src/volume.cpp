@@ -328,6 +328,27 @@ double Volume::signedField(const glm::dvec3& world) const
     return mImpl->volumeClass == VolumeClass::LevelSet ? v - mImpl->iso : mImpl->iso - v;
 }
 
+glm::dvec3 Volume::fieldGradient(const glm::dvec3& world) const
+{
+    const openvdb::math::Transform& transform = mImpl->grid->transform();
+    const openvdb::Vec3d index = transform.worldToIndex(openvdb::Vec3d(world.x, world.y, world.z));
+    const openvdb::FloatGrid::ConstAccessor accessor = mImpl->grid->getConstAccessor();
+    // Half a voxel either side: the difference spans the cell around the point and its neighbours,
+    // which smooths the trilinear field's kinks at cell faces.
+    constexpr double kStep = 0.5;
+    openvdb::Vec3d gradient;
+    for (int axis = 0; axis < 3; ++axis) {
+        openvdb::Vec3d step(0.0);
+        step[axis] = kStep;
+        gradient[axis] = (openvdb::tools::BoxSampler::sample(accessor, index + step) -
+                          openvdb::tools::BoxSampler::sample(accessor, index - step)) / (2.0 * kStep);
+    }
+    // The signed field is value - iso for level sets and iso - value for fog volumes.
+    if (mImpl->volumeClass == VolumeClass::Fog) gradient = -gradient;
+    const openvdb::Vec3d g = transform.baseMap()->applyIJT(gradient, index);
+    return {g.x(), g.y(), g.z()};
+}
+
 std::vector<GridSummary> listGrids(const std::string& path) { return summarizeGrids(*openFile(path), path); }
 
 Volume readVolume(const std::string& path, const VolumeOptions& options)

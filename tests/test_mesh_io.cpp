@@ -139,7 +139,7 @@ TEST(MeshIo, BinaryStlSaysHowMuchFloat32Rounded)
     for (glm::dvec3& v : far.vertices) v.x = 1e6 + 0.02;
     EXPECT_NEAR(writeMesh(far, dir.path("far.stl")), 0.02, 1e-9);
     // Text STL writes doubles.
-    EXPECT_EQ(writeMesh(far, dir.path("far_text.stl"), MeshWriteOptions{false, {}}), 0.0);
+    EXPECT_EQ(writeMesh(far, dir.path("far_text.stl"), MeshWriteOptions{false, {}, {}, {}}), 0.0);
 }
 
 TEST(MeshIo, ReadingGarbageIsAnError)
@@ -449,4 +449,38 @@ TEST(MeshIo, MalformedFilesNameTheirFirstBadToken)
     test::writeTextFile(dir.path("c.ply"), "ply\nformat ascii 1.0\nelement vertex 1\n\x1b[2Jproperty double x\nend_header\n");
     EXPECT_TRUE(mentions(readError(dir.path("c.ply")), {"line 4"})); // the escape is not passed on
     EXPECT_EQ(readError(dir.path("c.ply")).find('\x1b'), std::string::npos);
+}
+
+TEST(MeshIo, NormalsAndQualityReadBackAsTheSameMesh)
+{
+    // An octahedron's vertices are unit vectors from its centre: their own outward normals. Every
+    // format and encoding with normals (and a PLY quality) reads back as the same vertices and
+    // faces, and the files name the normals as their readers expect.
+    const TriangleMesh mesh = octahedron();
+    MeshWriteOptions options;
+    options.normals = mesh.vertices;
+    options.quality = {0.0, 0.5, 1.0, 1.5, 2.0, 2.5};
+    test::TempDir dir;
+    for (const bool binary : {true, false})
+        for (const char* ext : {".ply", ".obj", ".stl", ".off"}) {
+            const std::string path = dir.path(std::string(binary ? "binary" : "text") + ext);
+            SCOPED_TRACE(path);
+            options.binary = binary;
+            writeMesh(mesh, path, options);
+            const TriangleMesh back = readMesh(path);
+            // STL numbers its distinct corners in the order the triangles meet them.
+            if (std::string(ext) != ".stl") EXPECT_EQ(back.vertices, mesh.vertices);
+            if (std::string(ext) != ".stl") EXPECT_EQ(back.triangles, mesh.triangles);
+            EXPECT_EQ(back.triangles.size(), mesh.triangles.size());
+            std::ifstream in(path, std::ios::binary);
+            const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+            if (std::string(ext) == ".ply") {
+                EXPECT_NE(bytes.find("property float nx\nproperty float ny\nproperty float nz\n"), std::string::npos);
+                EXPECT_NE(bytes.find("property float quality\n"), std::string::npos);
+            }
+            if (std::string(ext) == ".obj") {
+                EXPECT_NE(bytes.find("\nvn 0 0 1\n"), std::string::npos);
+                EXPECT_NE(bytes.find("\nf 1//1 "), std::string::npos);
+            }
+        }
 }

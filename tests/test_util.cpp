@@ -169,14 +169,20 @@ std::vector<glm::dvec3> plyDoubleVertices(const std::string& path)
 {
     std::ifstream in(path, std::ios::binary);
     std::string line;
-    std::size_t count = 0;
-    bool doubles = false;
+    std::size_t count = 0, extraBytes = 0; // per vertex after x, y, z: float normals, colours
+    bool doubles = false, inVertex = false;
     while (std::getline(in, line) && line != "end_header") {
+        if (line.rfind("element ", 0) == 0) inVertex = line.rfind("element vertex ", 0) == 0;
         if (line.rfind("element vertex ", 0) == 0) count = std::stoul(line.substr(15));
         if (line == "property double x") doubles = true;
+        if (inVertex && line.rfind("property float ", 0) == 0) extraBytes += 4;
+        if (inVertex && line.rfind("property uchar ", 0) == 0) extraBytes += 1;
     }
     std::vector<glm::dvec3> vertices(doubles ? count : 0);
-    for (glm::dvec3& v : vertices) in.read(reinterpret_cast<char*>(&v.x), 3 * sizeof(double));
+    for (glm::dvec3& v : vertices) {
+        in.read(reinterpret_cast<char*>(&v.x), 3 * sizeof(double));
+        in.ignore(static_cast<std::streamsize>(extraBytes));
+    }
     return vertices;
 }
 

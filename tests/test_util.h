@@ -88,7 +88,8 @@ private:
     bool mMounted = false;
 };
 
-/// The vertices of a binary PLY with double x, y, z as pipetile writes it, read byte by byte
+/// The vertices of a binary PLY with double x, y, z (then float and uchar properties) as pipetile
+/// writes it, read byte by byte
 /// (OpenMesh's reader rounds them to float).
 std::vector<glm::dvec3> plyDoubleVertices(const std::string& path);
 

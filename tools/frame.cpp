@@ -7,6 +7,7 @@
 
 #include <pipetile/error.h>
 #include <pipetile/mesh_io.h>
+#include <pipetile/quality.h>
 
 #include <algorithm>
 #include <chrono>
@@ -183,8 +184,12 @@ json meshFrame(const FrameJob& job)
     // A .glb holds every level over one vertex array (written below, with the validation's errors).
     const auto levelFile = [&](int level) { return glb ? job.output : levelPath(job.output, level); };
     double rounding = 0.0;
-    for (const LevelMesh& level : levels)
-        if (!glb) rounding = std::max(rounding, writeMesh(level.mesh, *files, levelFile(level.level)));
+    for (const LevelMesh& level : levels) {
+        if (glb) continue;
+        MeshWriteOptions write;
+        write.normals = vertexNormals(volume, level.mesh); // the field's gradient, outward
+        rounding = std::max(rounding, writeMesh(level.mesh, *files, levelFile(level.level), write));
+    }
     warnIfRounded(job.output, rounding, volume.smallestVoxel(), job.notify);
     const bool nest = glb || !job.html.empty();
     const NestedLevels nested = nest ? nestLevels(levels) : NestedLevels{};
@@ -198,6 +203,7 @@ json meshFrame(const FrameJob& job)
     report["seconds"] = std::chrono::duration<double>(Clock::now() - start).count();
     GlbOptions glbOptions;
     glbOptions.metresPerUnit = job.metresPerUnit;
+    if (nest) glbOptions.normals = vertexNormals(volume, nestedMesh(nested, nested.vertexCounts.size() - 1));
     if (job.beforeCommit) job.beforeCommit(volume, reconstruction, levels, nested, report, glbOptions);
     if (glb) writeGlb(nested, *files, job.output, glbOptions);
     if (!job.html.empty()) {

@@ -281,6 +281,8 @@ int runValidate(const ValidateArgs& args)
     if (!args.colors.empty()) {
         pipetile::MeshWriteOptions options;
         options.colors = pipetile::errorColors(v.vertexDistance, v.voxel);
+        options.quality = v.vertexDistance;
+        options.normals = pipetile::vertexNormals(volume, mesh);
         pipetile::writeMesh(mesh, *files, args.colors, options);
     }
     if (!args.report.empty()) {

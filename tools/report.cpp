@@ -96,6 +96,13 @@ json levelReport(const LevelMesh& level, bool topology)
         {"interpolation_fallbacks", level.interpolationFallbacks},
         {"area_junction_parts", level.areaJunctionParts},
     };
+    // Triangle quality, for the meshers and renderers downstream (a linear pass).
+    const TriangleQuality q = measureQuality(level.mesh);
+    j["smallest_angle"] = q.smallestAngle;
+    j["largest_aspect"] = q.largestAspect;
+    j["triangles_below_5_degrees"] = q.needles;
+    j["degenerate_triangles"] = q.degenerate;
+    j["flips"] = level.flips;
     if (topology) {
         // The level's own Euler characteristic, against the events'.
         const Topology t = checkTopology(level.mesh);
@@ -121,7 +128,7 @@ json validationReport(const Validation& v)
         {"area", v.quality.area}, {"reference_area", v.referenceArea},
         {"volume", t.signedVolume}, {"reference_volume", v.referenceVolume},
         {"smallest_angle", v.quality.smallestAngle}, {"largest_aspect", v.quality.largestAspect},
-        {"degenerate_triangles", v.quality.degenerate},
+        {"degenerate_triangles", v.quality.degenerate}, {"triangles_below_5_degrees", v.quality.needles},
         {"reference_triangles", v.referenceTriangles}, {"reference_seconds", v.referenceSeconds},
         {"seconds", v.seconds},
     };

@@ -71,6 +71,7 @@ struct LevelMesh {
     int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
     int areaJunctionParts = 0;     // junction parts tiled by the minimum-area tiler: their polygon
                                    // gave no contour (it winds around no point inside it)
+    long long flips = 0;           // edges flipped to remove needles (quality.h, flipNeedles)
 };
 
 /// What the level-independent pass found; degenerate geometry is counted here, not thrown.

@@ -10,6 +10,7 @@
 #include <pipetile/mesh_io.h>
 #include <pipetile/multires.h>
 #include <pipetile/output_set.h>
+#include <pipetile/quality.h>
 #include <pipetile/slicer.h>
 #include <pipetile/tiler.h>
 #include <pipetile/validate.h>

@@ -50,6 +50,8 @@ struct TriangleQuality {
     double smallestAngle = 0.0;    // degrees, over non-degenerate triangles
     double largestAspect = 0.0;    // longest edge / shortest altitude * sqrt(3)/2: 1 for equilateral
     long long degenerate = 0;      // area below 1e-12 of the longest edge squared
+    long long needles = 0;         // triangles with an angle below kNeedleDegrees (5), degenerate
+                                   // ones included
 };
 
 /// Precondition as checkTopology.

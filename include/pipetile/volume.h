@@ -79,6 +79,11 @@ public:
     bool mirrored() const;
     /// The signed field (negative inside) at a world point, trilinearly interpolated.
     double signedField(const glm::dvec3& world) const;
+    /// The gradient of the signed field at a world point, in world units: central differences of
+    /// the trilinear field half a voxel either side, taken to world space by the transform's
+    /// inverse transpose Jacobian. It points outward for both classes; (0, 0, 0) where the field
+    /// is flat (farther than the narrow band reaches from the surface).
+    glm::dvec3 fieldGradient(const glm::dvec3& world) const;
 
     const Impl& impl() const { return *mImpl; }
     bool valid() const { return static_cast<bool>(mImpl); }

@@ -1,0 +1,37 @@
+// pipetile — quality: what the programs downstream demand of a mesh. Outward vertex normals taken
+// from the field (VFX and 3D printing shade and offset with them), and no needle triangles (CFD
+// meshers such as TetGen refuse slivers): edge flips that raise the smallest angle.
+#pragma once
+
+#include <pipetile/mesh_io.h>
+#include <pipetile/volume.h>
+
+#include <glm/vec3.hpp>
+
+#include <vector>
+
+namespace pipetile {
+
+/// Outward unit normal at every vertex of `mesh` (world space): the normalised gradient of the
+/// volume's signed field (Volume::fieldGradient), which is exact on an implicit surface where face
+/// averages are not. Where the gradient vanishes (a vertex half a voxel from any other value), the
+/// area-weighted normal of the vertex's triangles stands in; a vertex of no triangle gets (0, 0, 0).
+/// Linear in the vertices; deterministic.
+std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh);
+
+/// Removes needles by edge flips (Lawson's, with the max-min angle criterion in space): an edge
+/// shared by two triangles is replaced by the quad's other diagonal when that raises the smaller
+/// of the two triangles' smallest angles, until no flip does. Vertices never move and triangles
+/// keep their number, so a closed, manifold, oriented mesh stays so, and levels still nest.
+/// An edge lying along a contour stays: one whose two ends lie in the same slice plane (index-space
+/// coordinate along `axis`) and one of whose triangles leaves the plane. In-plane edges between two
+/// in-plane triangles (the chords of a flat cap) may flip. A flip that would fold the surface
+/// (a new triangle facing against the quad) or create an edge the mesh already has is not made.
+/// Deterministic and single-threaded, so the result does not depend on threads.
+/// @return the number of flips made.
+long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
+
+/// Triangles with an angle below this many degrees are counted as needles in reports.
+constexpr double kNeedleDegrees = 5.0;
+
+} // namespace pipetile

@@ -1,0 +1,225 @@
+// pipetile — quality: vertex normals from the field, and needle removal by edge flips.
+// Flips: C. L. Lawson, "Software for C1 surface interpolation" (1977): a triangulation whose
+// smallest angle no flip raises; in space, with the flips that would fold the surface left out.
+
+#include <pipetile/quality.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <deque>
+#include <limits>
+#include <unordered_map>
+
+namespace pipetile {
+
+namespace {
+
+glm::dvec3 faceNormal(const TriangleMesh& mesh, const Triangle& t) // length: twice the area
+{
+    const glm::dvec3& a = mesh.vertices[t[0]];
+    return glm::cross(mesh.vertices[t[1]] - a, mesh.vertices[t[2]] - a);
+}
+
+// Area-weighted normals of the triangles around each vertex, summed (not normalised).
+std::vector<glm::dvec3> faceNormalSums(const TriangleMesh& mesh)
+{
+    std::vector<glm::dvec3> sums(mesh.vertices.size(), glm::dvec3(0.0));
+    for (const Triangle& t : mesh.triangles) {
+        const glm::dvec3 n = faceNormal(mesh, t);
+        for (const std::uint32_t v : t) sums[v] += n;
+    }
+    return sums;
+}
+
+glm::dvec3 unitOrZero(const glm::dvec3& v)
+{
+    const double length = glm::length(v);
+    return length > 0.0 && std::isfinite(length) ? v / length : glm::dvec3(0.0);
+}
+
+// Longest edge over shortest altitude, times sqrt(3)/2 so that an equilateral triangle has 1
+// (validate.h's measure); infinite for a triangle of no area.
+double aspectRatio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const double longest2 = std::max(glm::dot(b - a, b - a), std::max(glm::dot(c - b, c - b), glm::dot(a - c, a - c)));
+    const double twiceArea = glm::length(glm::cross(b - a, c - a));
+    return twiceArea > 0.0 ? longest2 / twiceArea * (std::sqrt(3.0) / 2.0) : std::numeric_limits<double>::infinity();
+}
+
+// The distance between segments [p0, p1] and [q0, q1] (Ericson, Real-Time Collision Detection,
+// 5.1.9): how far a flip from one diagonal of a quad to the other moves the surface, at most.
+double segmentDistance(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& q0, const glm::dvec3& q1)
+{
+    const glm::dvec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+    const double a = glm::dot(d1, d1), e = glm::dot(d2, d2), f = glm::dot(d2, r);
+    double s = 0.0, t = 0.0;
+    if (a <= 0.0 && e <= 0.0) return glm::length(r);
+    if (a <= 0.0) {
+        t = std::clamp(f / e, 0.0, 1.0);
+    } else {
+        const double c = glm::dot(d1, r);
+        if (e <= 0.0) {
+            s = std::clamp(-c / a, 0.0, 1.0);
+        } else {
+            const double b = glm::dot(d1, d2), denominator = a * e - b * b;
+            s = denominator > 0.0 ? std::clamp((b * f - c * e) / denominator, 0.0, 1.0) : 0.0;
+            t = (b * s + f) / e;
+            if (t < 0.0) {
+                t = 0.0;
+                s = std::clamp(-c / a, 0.0, 1.0);
+            } else if (t > 1.0) {
+                t = 1.0;
+                s = std::clamp((b - c) / a, 0.0, 1.0);
+            }
+        }
+    }
+    return glm::length(p0 + d1 * s - (q0 + d2 * t));
+}
+
+std::uint64_t edgeKey(std::uint32_t a, std::uint32_t b)
+{
+    return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
+}
+
+/// The triangles on each edge: two on a manifold edge; other counts are never flipped.
+struct EdgeFaces {
+    std::uint32_t face[2] = {0, 0};
+    int count = 0;
+};
+
+// The corner of triangle t opposite the edge (a, b), which t runs a -> b; -1 if it does not.
+int oppositeCorner(const Triangle& t, std::uint32_t a, std::uint32_t b)
+{
+    for (int k = 0; k < 3; ++k)
+        if (t[k] == a && t[(k + 1) % 3] == b) return (k + 2) % 3;
+    return -1;
+}
+
+class NeedleFlipper {
+public:
+    NeedleFlipper(TriangleMesh& mesh, const Volume& volume, int axis)
+        : mMesh(mesh), mMaxMove(kMaxMoveVoxels * volume.smallestVoxel())
+    {
+        mPlaneW.reserve(mesh.vertices.size());
+        for (const glm::dvec3& p : mesh.vertices) mPlaneW.push_back(volume.worldToIndex(p)[axis]);
+        for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+            for (int k = 0; k < 3; ++k) {
+                EdgeFaces& e = mEdges[edgeKey(mesh.triangles[f][k], mesh.triangles[f][(k + 1) % 3])];
+                if (e.count < 2) e.face[e.count] = f;
+                ++e.count;
+            }
+        // Each edge once: a manifold edge runs a -> b in one of its triangles with a < b.
+        for (const Triangle& t : mesh.triangles)
+            for (int k = 0; k < 3; ++k)
+                if (t[k] < t[(k + 1) % 3]) mQueue.push_back(edgeKey(t[k], t[(k + 1) % 3]));
+    }
+
+    long long run()
+    {
+        long long flips = 0;
+        while (!mQueue.empty()) {
+            const std::uint64_t key = mQueue.front();
+            mQueue.pop_front();
+            flips += tryFlip(key) ? 1 : 0;
+        }
+        return flips;
+    }
+
+private:
+    // Planes lie far more than this apart (added planes halve a slab down to an eighth of the
+    // slice spacing at most, graph.cpp), and the round trip through world space moves an
+    // index-space coordinate by far less.
+    static constexpr double kSamePlane = 1e-6;
+
+    // How far a flip may move the surface, in voxels (segmentDistance).
+    static constexpr double kMaxMoveVoxels = 0.1;
+
+    bool samePlane(std::uint32_t a, std::uint32_t b) const { return std::abs(mPlaneW[a] - mPlaneW[b]) < kSamePlane; }
+
+    // A contour edge: both ends in one plane, and a triangle on it that leaves the plane.
+    bool alongContour(std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) const
+    {
+        return samePlane(a, b) && !(samePlane(a, c) && samePlane(a, d));
+    }
+
+    bool tryFlip(std::uint64_t key)
+    {
+        const auto found = mEdges.find(key);
+        if (found == mEdges.end() || found->second.count != 2) return false;
+        const std::uint32_t f1 = found->second.face[0], f2 = found->second.face[1];
+        Triangle& t1 = mMesh.triangles[f1];
+        Triangle& t2 = mMesh.triangles[f2];
+        // t1 runs a -> b, t2 b -> a (consistently oriented); c and d are their third corners.
+        std::uint32_t a = static_cast<std::uint32_t>(key >> 32), b = static_cast<std::uint32_t>(key);
+        if (oppositeCorner(t1, a, b) < 0) std::swap(a, b);
+        const int k1 = oppositeCorner(t1, a, b), k2 = oppositeCorner(t2, b, a);
+        if (k1 < 0 || k2 < 0) return false;
+        const std::uint32_t c = t1[k1], d = t2[k2];
+        if (c == d || alongContour(a, b, c, d) || mEdges.count(edgeKey(c, d))) return false;
+
+        const std::vector<glm::dvec3>& p = mMesh.vertices;
+        const double before = std::max(aspectRatio(p[a], p[b], p[c]), aspectRatio(p[b], p[a], p[d]));
+        const double after = std::max(aspectRatio(p[c], p[a], p[d]), aspectRatio(p[d], p[b], p[c]));
+        // A margin well above rounding: every flip then lowers the list of all aspect ratios
+        // sorted from the largest, so the flips end (Lawson's argument), and rounding cannot make
+        // two diagonals take turns.
+        if (!(after < before * (1.0 - 1e-9))) return false;
+        // The surface must stay where it was, within a fraction of a voxel: on a coarse level a
+        // quad's diagonals can lie voxels apart (a cone's band spanning 300 slices), and taking
+        // the other one moves the mesh off the isosurface.
+        if (segmentDistance(p[a], p[b], p[c], p[d]) > mMaxMove) return false;
+        const Triangle n1{c, a, d}, n2{d, b, c};
+        const glm::dvec3 quad = faceNormal(mMesh, t1) + faceNormal(mMesh, t2);
+        const glm::dvec3 m1 = faceNormal(mMesh, n1), m2 = faceNormal(mMesh, n2);
+        if (!(glm::dot(m1, quad) > 0.0 && glm::dot(m2, quad) > 0.0 && glm::dot(m1, m2) > 0.0)) return false;
+
+        // Edge (c, a) stays on f1 and (d, b) on f2; (a, d) moves to f1 and (b, c) to f2.
+        t1 = n1;
+        t2 = n2;
+        mEdges.erase(found);
+        EdgeFaces& diagonal = mEdges[edgeKey(c, d)];
+        diagonal.face[0] = f1, diagonal.face[1] = f2, diagonal.count = 2;
+        moveEdge(edgeKey(a, d), f2, f1);
+        moveEdge(edgeKey(b, c), f1, f2);
+        for (const std::uint64_t side : {edgeKey(c, a), edgeKey(a, d), edgeKey(d, b), edgeKey(b, c)}) mQueue.push_back(side);
+        return true;
+    }
+
+    void moveEdge(std::uint64_t key, std::uint32_t from, std::uint32_t to)
+    {
+        EdgeFaces& e = mEdges[key];
+        for (int k = 0; k < std::min(e.count, 2); ++k)
+            if (e.face[k] == from) e.face[k] = to;
+    }
+
+    TriangleMesh& mMesh;
+    double mMaxMove; // world units
+    std::vector<double> mPlaneW; // per vertex, index-space coordinate along the slicing axis
+    std::unordered_map<std::uint64_t, EdgeFaces> mEdges;
+    std::deque<std::uint64_t> mQueue; // edges to look at, in triangle order: deterministic
+};
+
+} // namespace
+
+std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh)
+{
+    std::vector<glm::dvec3> normals(mesh.vertices.size());
+    std::vector<glm::dvec3> faceSums; // built on the first vertex that needs it
+    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+        normals[i] = unitOrZero(volume.fieldGradient(mesh.vertices[i]));
+        if (normals[i] != glm::dvec3(0.0)) continue;
+        if (faceSums.empty()) faceSums = faceNormalSums(mesh);
+        normals[i] = unitOrZero(faceSums[i]);
+    }
+    return normals;
+}
+
+long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis)
+{
+    return NeedleFlipper(mesh, volume, axis).run();
+}
+
+} // namespace pipetile

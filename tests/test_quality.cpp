@@ -1,0 +1,182 @@
+#include <pipetile/multires.h>
+#include <pipetile/quality.h>
+#include <pipetile/validate.h>
+#include <pipetile/volume.h>
+
+#include "phantoms.h"
+#include "test_util.h"
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+
+using namespace pipetile;
+
+namespace {
+
+// The bound on the angle between a field normal and the exact one, for the exact signed distance
+// of a shape whose surface has radius of curvature `radius` voxels (voxel 1). Each component of
+// Volume::fieldGradient is a central difference over +-0.5 voxel of the trilinear interpolant,
+// which is a convex combination of the voxel edges' forward differences, each the exact
+// derivative at a point of its edge (mean value theorem). Those points lie within 1.5 voxels of
+// the vertex along the component's axis and 1 along the two others: sqrt(4.25) voxels. The exact
+// gradient is the unit normal field, whose derivative is at most 1 / (distance to the centre of
+// curvature) >= 1 / (radius - sqrt(4.25) - 1) (the vertex lies within a voxel of the surface,
+// checked). So each component errs by at most sqrt(4.25) / (radius - sqrt(4.25) - 1), the vector
+// by sqrt(3) times that, and the angle by the arcsine of it. All those points lie within the
+// narrow band (3 voxels), where the stored values are the exact distances to float precision.
+double normalBoundDegrees(double radius)
+{
+    const double reach = std::sqrt(4.25);
+    return std::asin(std::sqrt(3.0) * reach / (radius - reach - 1.0)) * 180.0 / 3.14159265358979323846;
+}
+
+// Every vertex normal of every level within `boundDegrees` of `analytic`, and outward.
+void expectFieldNormals(const Volume& volume, const std::function<glm::dvec3(const glm::dvec3&)>& analytic,
+                        double boundDegrees)
+{
+    MeshOptions options;
+    options.levels = 3;
+    const Reconstruction reconstruction(volume, options);
+    double worst = 0.0;
+    for (int level = 0; level < reconstruction.levelCount(); ++level) {
+        const TriangleMesh mesh = reconstruction.buildLevel(level).mesh;
+        const std::vector<glm::dvec3> normals = vertexNormals(volume, mesh);
+        ASSERT_FALSE(mesh.vertices.empty()) << "level " << level;
+        ASSERT_EQ(normals.size(), mesh.vertices.size());
+        for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+            ASSERT_LT(std::abs(volume.signedField(mesh.vertices[i])), 1.0) << "vertex " << i << " off the surface";
+            const glm::dvec3 exact = analytic(mesh.vertices[i]);
+            EXPECT_NEAR(glm::length(normals[i]), 1.0, 1e-12);
+            EXPECT_GT(glm::dot(normals[i], exact), 0.0) << "level " << level << " vertex " << i << " points inward";
+            const double angle = std::acos(std::clamp(glm::dot(normals[i], exact), -1.0, 1.0)) * 180.0 / 3.14159265358979323846;
+            worst = std::max(worst, angle);
+        }
+    }
+    EXPECT_LE(worst, boundDegrees);
+    std::printf("worst normal: %.3f degrees (bound %.3f)\n", worst, boundDegrees);
+}
+
+} // namespace
+
+TEST(Quality, SphereNormalsFromTheFieldAreTheRadialOnes)
+{
+    // A sphere of radius 24 voxels: the bound is 10.1 degrees.
+    const glm::dvec3 centre(32.0);
+    const Volume sphere = samples::levelSetFromDistance(
+        [&](const glm::dvec3& p) { return glm::length(p - centre) - 24.0; }, glm::ivec3(64), 1.0, "sphere");
+    expectFieldNormals(sphere, [&](const glm::dvec3& p) { return glm::normalize(p - centre); }, normalBoundDegrees(24.0));
+}
+
+TEST(Quality, CapsuleNormalsFromTheFieldAreTheAnalyticOnes)
+{
+    // A capsule of radius 24 along z: the normal points away from the nearest point of its axis
+    // segment (radially on the cylinder, from the end centres on the caps). Bound 10.1 degrees.
+    const glm::dvec3 a(32.0, 32.0, 30.0), b(32.0, 32.0, 66.0);
+    auto nearest = [&](const glm::dvec3& p) { return a + (b - a) * std::clamp(glm::dot(p - a, b - a) / glm::dot(b - a, b - a), 0.0, 1.0); };
+    const Volume capsule = samples::levelSetFromDistance(
+        [&](const glm::dvec3& p) { return glm::length(p - nearest(p)) - 24.0; }, glm::ivec3(64, 64, 96), 1.0, "capsule");
+    expectFieldNormals(capsule, [&](const glm::dvec3& p) { return glm::normalize(p - nearest(p)); }, normalBoundDegrees(24.0));
+}
+
+TEST(Quality, FogNormalsPointOutwardToo)
+{
+    // A fog volume is dense inside: its outward normal is minus the gradient of its values. The
+    // bundled fog tube (radius 6 along z through (12, 12)): every normal outward from the axis.
+    test::TempDir dir;
+    test::writeTubeFogVdb(dir.path("tube.vdb"));
+    const Volume fog = readVolume(dir.path("tube.vdb"));
+    ASSERT_EQ(fog.volumeClass(), VolumeClass::Fog);
+    const TriangleMesh mesh = Reconstruction(fog, MeshOptions{}).buildLevel(1).mesh;
+    const std::vector<glm::dvec3> normals = vertexNormals(fog, mesh);
+    const glm::dvec3 axis = fog.indexToWorld({12.0, 12.0, 0.0});
+    long long outward = 0;
+    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+        glm::dvec3 radial = mesh.vertices[i] - axis;
+        radial.z = 0.0;
+        // Cap vertices near the axis have no radial direction to compare with.
+        if (glm::length(radial) < 3.0) continue;
+        outward += glm::dot(normals[i], radial) > 0.0 ? 1 : 0;
+        EXPECT_GT(glm::dot(normals[i], radial), 0.0) << "vertex " << i;
+    }
+    EXPECT_GT(outward, 0);
+}
+
+namespace {
+
+// The bound of issue 17: no triangle with an aspect ratio over 100 at any level, and none
+// degenerate; the flips keep every level closed, manifold and oriented.
+void expectNoNeedles(const std::vector<const char*>& names)
+{
+    for (const char* name : names) {
+        SCOPED_TRACE(name);
+        const Volume& volume = test::cachedSample(name);
+        const Reconstruction reconstruction(volume, MeshOptions{});
+        Refinement refinement(reconstruction);
+        while (true) {
+            const LevelMesh& level = refinement.mesh();
+            const TriangleQuality q = measureQuality(level.mesh);
+            EXPECT_EQ(q.degenerate, 0) << "level " << level.level;
+            EXPECT_LE(q.largestAspect, 100.0) << "level " << level.level;
+            const Topology t = checkTopology(level.mesh);
+            EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level.level;
+            if (!refinement.canRefine()) break;
+            refinement.refine();
+        }
+    }
+}
+
+} // namespace
+
+TEST(Quality, FlipsLeaveThePhantomsClosedAndFreeOfNeedles)
+{
+    expectNoNeedles({"straight", "hollow", "torus-flat", "helix", "two-tubes"});
+}
+
+TEST(Quality, DISABLED_KnownGapNoNeedlesOnBranchesAndFolds)
+{
+    // Known gap (registered as an expected failure in CMakeLists.txt). ybranch: two degenerate
+    // triangles at every level, on an edge of length 0: a junction cut vertex lies exactly on a
+    // crossing of the fork's single contour (at (64, 65.187, 101)), so two vertices coincide; no
+    // flip can give a zero-length edge area (junctions, multires.cpp). bean (C-shaped sections that
+    // rays cross three times): aspect 115, 137 and 254 at levels 0, 2 and 3; not yet diagnosed.
+    expectNoNeedles({"ybranch", "bean"});
+}
+
+TEST(Quality, FlippingAgainChangesNothing)
+{
+    // The pass ends where no flip lowers the larger aspect ratio of a pair: run again, it flips none.
+    const Volume& volume = test::cachedSample("ybranch");
+    LevelMesh level = Reconstruction(volume, MeshOptions{}).buildLevel(2);
+    EXPECT_GT(level.flips, 0);
+    const std::vector<Triangle> before = level.mesh.triangles;
+    EXPECT_EQ(flipNeedles(level.mesh, volume, 2), 0);
+    EXPECT_EQ(level.mesh.triangles, before);
+}
+
+TEST(Quality, DISABLED_KnownGapNoNeedlesOnTheRealData)
+{
+    // Known gap (registered as an expected failure in CMakeLists.txt). Flips cannot reach aspect
+    // <= 100 on two real volumes, because the needles sit on contour edges, which no flip may
+    // remove: the vmtk aorta's contours hold crossings 0.001 mm apart (rays meeting the boundary
+    // at nearly one point, next to the central point), and the ChestImagingPlatform cone's tip
+    // ends in an end contour of radius 0.03 voxel whose 64 edges of 0.002 voxel face a slice 0.9
+    // voxel away (aspect 413 at level 3; at level 0 the band spans the 304 voxels the slice choice
+    // skips, aspect 1.4e4). Fixing them changes vertices (contours), not diagonals.
+    for (const char* file : {"vmtk_aorta_ls.vdb", "cip_cone_vessel_density.vdb", "ts_common_carotid_artery_left_ls.vdb"}) {
+        SCOPED_TRACE(file);
+        const Volume volume = readVolume(test::realData(file));
+        MeshOptions options;
+        options.levels = 4;
+        const Reconstruction reconstruction(volume, options);
+        for (int level = 0; level < reconstruction.levelCount(); ++level) {
+            const TriangleQuality q = measureQuality(reconstruction.buildLevel(level).mesh);
+            EXPECT_EQ(q.degenerate, 0) << "level " << level;
+            EXPECT_LE(q.largestAspect, 100.0) << "level " << level;
+        }
+    }
+}
