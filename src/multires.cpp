@@ -1434,7 +1434,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
         }
     }
-    result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+    // The baselines stay as their papers give them (the optimal tiler's is the least area).
+    if (mOptions.tiler == TilerKind::ContourTree) result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     return result;
 }
 

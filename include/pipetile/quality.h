@@ -19,9 +19,10 @@ namespace pipetile {
 /// Linear in the vertices; deterministic.
 std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh);
 
-/// Removes needles by edge flips (Lawson's, with the max-min angle criterion in space): an edge
-/// shared by two triangles is replaced by the quad's other diagonal when that raises the smaller
-/// of the two triangles' smallest angles, until no flip does. Vertices never move and triangles
+/// Removes needles by edge flips (Lawson's, with the max-min criterion in space, on aspect
+/// ratios): an edge shared by two triangles, one of them a needle (aspect ratio over 5, about a
+/// 10 degree angle), is replaced by the quad's other diagonal when that lowers the larger of the
+/// two triangles' aspect ratios, until no flip does. Triangles that are no needle stay as tiled. Vertices never move and triangles
 /// keep their number, so a closed, manifold, oriented mesh stays so, and levels still nest.
 /// An edge lying along a contour stays: one whose two ends lie in the same slice plane (index-space
 /// coordinate along `axis`) and one of whose triangles leaves the plane. In-plane edges between two
