@@ -1434,6 +1434,10 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
         }
     }
+    // A junction part's crossing can fall on a vertex of the single contour (collapseShortEdges);
+    // a millionth of a voxel is far below any edge the rays make (the aorta's shortest is 4e-5
+    // voxel) and far above rounding.
+    collapseShortEdges(mesh, 1e-6 * mVolume.smallestVoxel());
     // The baselines stay as their papers give them (the optimal tiler's is the least area).
     if (mOptions.tiler == TilerKind::ContourTree) result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     return result;

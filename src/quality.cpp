@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <deque>
+#include <iterator>
 #include <limits>
 #include <unordered_map>
 
@@ -222,6 +223,13 @@ private:
     std::deque<std::pair<std::uint32_t, std::uint32_t>> mQueue; // edges to look at, in order: deterministic
 };
 
+// Union-find over vertex ids, each set named by its lowest id.
+std::uint32_t rootOf(std::vector<std::uint32_t>& parent, std::uint32_t v)
+{
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+}
+
 } // namespace
 
 std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh)
@@ -235,6 +243,85 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
         normals[i] = unitOrZero(faceSums[i]);
     }
     return normals;
+}
+
+long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
+{
+    const std::vector<glm::dvec3>& p = mesh.vertices;
+    const double tolerance2 = tolerance * tolerance;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> shortEdges;
+    for (const Triangle& t : mesh.triangles)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+            if (a < b && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2) shortEdges.push_back({a, b});
+        }
+    if (shortEdges.empty()) return 0; // the common case costs one pass over the triangles
+    std::sort(shortEdges.begin(), shortEdges.end());
+
+    // The triangles around the short edges' ends; a collapse moves the upper end's into the set.
+    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> around;
+    for (const auto& [a, b] : shortEdges) around[a], around[b];
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+        for (const std::uint32_t v : mesh.triangles[f]) {
+            const auto at = around.find(v);
+            if (at != around.end()) at->second.push_back(f);
+        }
+    std::vector<std::uint32_t> parent(p.size());
+    for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
+    std::vector<bool> gone(mesh.triangles.size(), false);
+    long long collapsed = 0;
+    for (const auto& [u, v] : shortEdges) {
+        const std::uint32_t a = rootOf(parent, u), b = rootOf(parent, v);
+        if (a == b) continue;
+        // Link condition: the neighbours a and b share are exactly the third corners of the (two)
+        // triangles on the edge; otherwise the collapse would pinch the surface.
+        std::vector<std::uint32_t> on, nearA, nearB, opposite;
+        for (const std::uint32_t end : {a, b})
+            for (const std::uint32_t f : around[end]) {
+                if (gone[f]) continue;
+                Triangle t = mesh.triangles[f];
+                for (std::uint32_t& w : t) w = rootOf(parent, w);
+                const bool hasA = holds(t, a), hasB = holds(t, b);
+                for (const std::uint32_t w : t)
+                    if (w != a && w != b) (hasA && hasB ? opposite : hasA ? nearA : nearB).push_back(w);
+                if (hasA && hasB && end == a) on.push_back(f);
+            }
+        for (std::vector<std::uint32_t>* list : {&nearA, &nearB, &opposite}) {
+            std::sort(list->begin(), list->end());
+            list->erase(std::unique(list->begin(), list->end()), list->end());
+        }
+        std::vector<std::uint32_t> shared;
+        std::set_intersection(nearA.begin(), nearA.end(), nearB.begin(), nearB.end(), std::back_inserter(shared));
+        if (on.size() != 2 || opposite.size() != 2 || shared != opposite) continue;
+        for (const std::uint32_t f : on) gone[f] = true;
+        parent[b] = a;
+        std::vector<std::uint32_t>& into = around[a];
+        const std::vector<std::uint32_t>& from = around[b];
+        into.insert(into.end(), from.begin(), from.end());
+        ++collapsed;
+    }
+    if (collapsed == 0) return 0;
+
+    // The vertices that named their set stay, in their order; each corner moves to its set's.
+    std::vector<std::uint32_t> newId(p.size(), 0);
+    std::vector<glm::dvec3> vertices;
+    vertices.reserve(p.size() - static_cast<std::size_t>(collapsed));
+    for (std::uint32_t v = 0; v < p.size(); ++v)
+        if (parent[v] == v) {
+            newId[v] = static_cast<std::uint32_t>(vertices.size());
+            vertices.push_back(p[v]);
+        }
+    std::vector<Triangle> kept;
+    kept.reserve(mesh.triangles.size());
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+        if (gone[f]) continue;
+        Triangle t = mesh.triangles[f];
+        for (std::uint32_t& w : t) w = newId[rootOf(parent, w)];
+        kept.push_back(t);
+    }
+    mesh.vertices = std::move(vertices);
+    mesh.triangles = std::move(kept);
+    return collapsed;
 }
 
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis)

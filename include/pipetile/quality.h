@@ -32,6 +32,17 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 /// @return the number of flips made.
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 
+/// Collapses each edge no longer than `tolerance` (world units) into its lower-numbered end, where
+/// the collapse keeps a closed manifold so (the edge has two triangles, and its ends share no
+/// neighbour but those triangles' third corners): the two triangles go, and so does the other end,
+/// after which the vertices are renumbered in their order. Two constructions can put a vertex at
+/// one point up to rounding: a junction part's ray, cast from the partner's central point, meets
+/// the single contour's polygon where that contour's own ray does when both centres lie on one
+/// line with the point; each gave a triangle of no area. Positions are not moved, so levels still
+/// nest; linear in the mesh, deterministic.
+/// @return the number of edges collapsed.
+long long collapseShortEdges(TriangleMesh& mesh, double tolerance);
+
 /// Triangles with an angle below this many degrees are counted as needles in reports.
 constexpr double kNeedleDegrees = 5.0;
 
