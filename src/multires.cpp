@@ -213,6 +213,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     correspond();
     resolveEvents();
     followCentres();
+    centreParts();
     closeEnds();
     groupRays();
     chooseSlices();
@@ -425,22 +426,29 @@ bool Reconstruction::splitJunction(Junction& junction) const
     const std::vector<glm::dvec2>* inner =
         junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second].view.polygon : nullptr;
     if (!splitIntoArcs(polygon, inner, partners, junction)) return false;
+    const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
+    auto addNode = [&](const glm::dvec2& point, double wNode) {
+        junction.nodePoints.push_back(point);
+        junction.nodeIndex.push_back(planeToIndex(mPlan.axis, point, wNode));
+    };
+    for (int cut : junction.cuts) addNode(polygon[cut], w);
+    if (inner)
+        for (int cut : junction.innerCuts) addNode((*inner)[cut], w);
     // Hub and chord middles lie just short of the saddle: inside across a neck or a ring's wall,
     // outside across a gap that closes. Toward the partners' plane the field changes sides at
     // the saddle itself, so they move there (and stay put if they do not get there).
-    const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
     const SlicePlane plane(mVolume, mPlan, w);
-    auto ontoSaddle = [&](const glm::dvec2& point) {
+    auto addSaddleNode = [&](const glm::dvec2& point) {
         double wSaddle = w;
         const double side = plane.sampleAt(point, w) < 0.0 ? 1.0 : -1.0;
         findApex(plane, point, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), wSaddle, side);
-        return wSaddle;
+        addNode(point, wSaddle);
     };
     const std::size_t n = junction.cuts.size();
     if (junction.hubbed && !inner) {
-        junction.hub = glm::dvec2(0.0);
-        for (int cut : junction.cuts) junction.hub += polygon[cut] / static_cast<double>(n);
-        junction.hubW = ontoSaddle(junction.hub);
+        glm::dvec2 hub(0.0);
+        for (int cut : junction.cuts) hub += polygon[cut] / static_cast<double>(n);
+        addSaddleNode(hub);
         composeParts(junction);
         return true;
     }
@@ -452,10 +460,8 @@ bool Reconstruction::splitJunction(Junction& junction) const
         // back to cut a.
         if (!inner && arcs[junction.owner[a]] != 1) continue;
         const std::size_t b = (a + 1) % n;
-        const glm::dvec2 middle = 0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]]));
         junction.chordArcs.push_back(static_cast<int>(a));
-        junction.chordMiddles.push_back(planeToIndex(mPlan.axis, middle, ontoSaddle(middle)));
-        junction.nodePoints.push_back(middle); // collected here, placed after the cuts below
+        addSaddleNode(0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]])));
     }
     composeParts(junction);
     return true;
@@ -466,25 +472,8 @@ void Reconstruction::composeParts(Junction& junction) const
     using Part = Junction::Part;
     const SliceLoop& single = mLoops[junction.single.first][junction.single.second];
     const SliceLoop* inner = junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second] : nullptr;
-    const double w = mPositions[junction.single.first];
     const std::size_t n = junction.cuts.size();
-    // Nodes: cuts, the hole's cuts, then the hub or the chord middles (splitJunction left those
-    // middles' in-plane points in nodePoints).
-    const std::vector<glm::dvec2> middles = std::move(junction.nodePoints);
-    junction.nodePoints.clear();
-    for (int cut : junction.cuts) junction.nodePoints.push_back(single.view.polygon[cut]);
-    if (inner)
-        for (int cut : junction.innerCuts) junction.nodePoints.push_back(inner->view.polygon[cut]);
-    for (const glm::dvec2& p : junction.nodePoints) junction.nodeIndex.push_back(planeToIndex(mPlan.axis, p, w));
-    const int firstMiddle = static_cast<int>(junction.nodePoints.size());
-    if (junction.hubbed) {
-        junction.nodePoints.push_back(junction.hub);
-        junction.nodeIndex.push_back(planeToIndex(mPlan.axis, junction.hub, junction.hubW));
-    }
-    for (std::size_t c = 0; c < junction.chordMiddles.size(); ++c) {
-        junction.nodePoints.push_back(middles[c]);
-        junction.nodeIndex.push_back(junction.chordMiddles[c]);
-    }
+    const int firstMiddle = static_cast<int>(n + junction.innerCuts.size());
     auto middleOf = [&](std::size_t a) { // the node of the chord closing arc a, or -1
         const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
         return at == junction.chordArcs.end() ? -1 : firstMiddle + static_cast<int>(at - junction.chordArcs.begin());
@@ -521,25 +510,52 @@ void Reconstruction::composeParts(Junction& junction) const
             }
         }
         if (junction.hubbed) appendNode(part, firstMiddle);
-        const auto [ps, pl] = junction.many[k];
-        const SliceLoop& partner = mLoops[ps][pl];
+        const SliceLoop& partner = mLoops[junction.many[k].first][junction.many[k].second];
         if (partner.loop.hole() != singleHole && !rim) std::reverse(part.corners.begin(), part.corners.end());
-        std::vector<glm::dvec2> polygon;
         for (const Part::Corner& c : part.corners)
-            polygon.push_back(c.member < 0 ? junction.nodePoints[c.node]
-                                           : (c.member == 0 ? single : *inner).view.polygon[c.point]);
-        double area2 = 0.0;
-        for (std::size_t i = 0; i < polygon.size(); ++i) {
-            const glm::dvec2 a = polygon[i], b = polygon[(i + 1) % polygon.size()];
-            area2 += a.x * b.y - a.y * b.x;
-        }
-        // Its rays come from the partner's central point, so that ray k of both meets the same
-        // side of the branch. A part that does not hold that point (a ring's sector against a
-        // whole wall), or runs clockwise, gives no contour and falls back to the minimum-area
-        // tiler.
-        if (area2 > 0.0 && liesWellInside(polygon, partner.view.center)) part.view = viewOfPolygon(polygon, partner.view.center);
+            part.polygon.push_back(c.member < 0 ? junction.nodePoints[c.node]
+                                                : (c.member == 0 ? single : *inner).view.polygon[c.point]);
         part.view.hole = partner.loop.hole();
         junction.parts.push_back(std::move(part));
+    }
+}
+
+void Reconstruction::centreParts()
+{
+    // A part is cast with its partner's rays from the partner's central point, so that ray k of
+    // both meets the same side of the branch; the part must run counterclockwise and wind once
+    // around that point. Where the point lies less than a quarter pixel inside the partner and
+    // its parts (a sliver where a branch barely touches the slab, a ring's sector against the
+    // piece of wall it joins, a branch leaving so obliquely that its centre lies outside its
+    // part), the partner moves to the point deepest inside them all, if that is deeper. A part's
+    // crossings lie on its polygon (no root finding), so any point inside serves it; a quarter
+    // pixel keeps the partner's own rays from grazing its boundary where there is room. A part
+    // still not wound once around the centre is tiled by the minimum-area tiler (assemble).
+    constexpr double kClearance = 0.25;
+    std::map<std::pair<int, int>, std::vector<Junction::Part*>> partsOf;
+    for (Junction& junction : mJunctions)
+        for (std::size_t k = 0; k < junction.many.size(); ++k) partsOf[junction.many[k]].push_back(&junction.parts[k]);
+    for (const auto& [loop, parts] : partsOf) {
+        SliceLoop& partner = mLoops[loop.first][loop.second];
+        std::vector<const std::vector<glm::dvec2>*> polygons;
+        for (const Junction::Part* part : parts)
+            if (polygonArea(part->polygon) > 0.0) polygons.push_back(&part->polygon);
+        const double depth = commonDepth(partner.loop, polygons, partner.view.center);
+        glm::dvec2 centre;
+        if (!polygons.empty() && depth < kClearance && deepestCommonPoint(partner.loop, polygons, centre) > depth) {
+            LoopView view = viewFrom(partner.loop, centre);
+            if (view.winding == 1) {
+                partner.profile = radialProfile(view, profileDirections());
+                partner.view = std::move(view);
+            }
+        }
+        for (Junction::Part* part : parts) {
+            if (!(polygonArea(part->polygon) > 0.0)) continue;
+            LoopView view = viewOfPolygon(part->polygon, partner.view.center);
+            if (view.winding != 1) continue;
+            part->view = std::move(view);
+            part->view.hole = partner.loop.hole();
+        }
     }
 }
 
@@ -872,7 +888,10 @@ Skeleton Reconstruction::skeleton() const
         Skeleton::Junction j;
         j.kind = junction.kind;
         j.w = mPositions[junction.single.first];
-        j.crotchW = junction.hubW;
+        // The hub's plane, or the chords' middles' mean: where the saddle nodes got to.
+        const std::size_t firstMiddle = junction.cuts.size() + junction.innerCuts.size();
+        for (std::size_t node = firstMiddle; node < junction.nodeIndex.size(); ++node)
+            j.crotchW += junction.nodeIndex[node][mPlan.axis] / static_cast<double>(junction.nodeIndex.size() - firstMiddle);
         j.single = segmentOf[junction.single.first][junction.single.second];
         for (const auto& [s, l] : junction.many) j.partners.push_back(segmentOf[s][l]);
         skeleton.junctions.push_back(j);

@@ -160,6 +160,17 @@ LoopView viewOfPolygon(std::vector<glm::dvec2> polygon, const glm::dvec2& center
 /// Whether a point lies inside a polygon, at least a quarter pixel from its edges.
 bool liesWellInside(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);
 
+/// Signed area of a polygon, pixels^2: > 0 counterclockwise.
+double polygonArea(const std::vector<glm::dvec2>& polygon);
+
+/// How deep a point lies inside the loop and every polygon at once: its distance to the nearest
+/// of their edges, or -1 if it lies outside any.
+double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons, const glm::dvec2& p);
+
+/// The point of largest commonDepth, sought on a 64 x 64 grid over the box they share; returns its
+/// depth (-1 where no point of the grid lies inside them all, and `point` is left as it was).
+double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons, glm::dvec2& point);
+
 /// Distance from a point to a closed polygon.
 double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);
 

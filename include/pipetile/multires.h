@@ -215,19 +215,15 @@ private:
         std::pair<int, int> single{-1, -1};        // (plane, loop)
         std::pair<int, int> inner{-1, -1};         // a ring's hole inside `single`, or none
         std::vector<std::pair<int, int>> many;     // the partners: arc k goes to many[owner[k]]
-        glm::dvec2 hub{0.0};                       // hubbed: where the chords from the cuts meet,
-        double hubW = 0.0;                         // their mean, moved along the axis toward the
-                                                   // partners onto the surface (the crotch), if it
-                                                   // gets there
         std::vector<int> chordArcs;                // no hub: the arcs a chord closes (a gap's
                                                    // arc; for a ring every arc, closed from cut
                                                    // k + 1 of the wall to the hole's, and back)
-        std::vector<glm::dvec3> chordMiddles;      // index space, per chord: a vertex in its middle,
-                                                   // moved onto the surface like the hub (a chord
-                                                   // never joins two cuts directly, so no cap of
-                                                   // the same contour can share its edge)
         // Nodes: the junction's own vertices, the same at every level: the cuts (node k), the
-        // hole's cuts (node n + k), then the hub or the chord middles.
+        // hole's cuts (node n + k), then the hub (where the chords from the cuts meet: their
+        // mean) or the chords' middles, in chordArcs' order. Hub and middles start in the single
+        // contour's plane and move along the axis toward the partners onto the surface (the
+        // crotch), if they get there; a chord never joins two cuts directly, so no cap of the
+        // same contour can share its edge.
         std::vector<glm::dvec2> nodePoints;        // in-plane
         std::vector<glm::dvec3> nodeIndex;         // index space
         /// Partner k's side of the junction as one polygon, a composite contour (TOPOLOGY.md):
@@ -241,7 +237,9 @@ private:
                 int node = -1;   // the node it is, or -1
             };
             std::vector<Corner> corners;
-            LoopView view;   // from a point inside; usable when it winds once around it
+            std::vector<glm::dvec2> polygon; // the corners' points
+            LoopView view;   // from the partner's central point, when the polygon winds once
+                             // around it (centreParts); else no polygon: the minimum-area tiler
         };
         std::vector<Part> parts;                   // per partner
     };
@@ -256,9 +254,11 @@ private:
     void resolveEvents();
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     bool splitJunction(Junction& junction) const;
-    /// The junction's nodes and its parts, from its arcs (see Junction::Part).
+    /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
     void followCentres();
+    /// Each part's view from its partner's central point, the partner moved where need be.
+    void centreParts();
     /// The central point of `loop` that follows `before`'s along their tube (see followCentres).
     static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
     void closeEnds();
