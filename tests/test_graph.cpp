@@ -190,19 +190,16 @@ TEST(Graph, ArcsOfAPeanutGoToItsLobes)
     EXPECT_FALSE(splitIntoArcs(circle({-5.0, 0.0}, 3.0, 3.0, 32), nullptr, {&left, &far}, none));
 }
 
-TEST(Graph, TwistingCStaysOneTube)
+namespace {
+
+// A C-shaped section (a 270-degree arc of radius 12, 5 thick) turning `radiansPerVoxel` along z,
+// over z in [16, 48]. The in-plane distance changes up to 14.5 * radiansPerVoxel times faster
+// along z than a distance may, so it is divided by that bound (the zero set is the same; the
+// level set's band stays valid).
+Volume twistingC(double radiansPerVoxel)
 {
-    // A C-shaped section (a 270-degree arc of radius 12, 5 thick) turning 15 degrees per voxel
-    // along z: its centroid lies in the gap, its central point on the arc, and from one slice to
-    // the next (30 degrees, 6.3 voxels along the arc) the sections overlap in part only, and
-    // their ends change. The slab joins them: one tube, no events, the isosurface's topology (a
-    // sphere). (The old tiler's main path failed on these contours with an internal error.) The in-plane distance changes up to 14.5 * pi / 12 = 3.8
-    // times faster along z than a distance may, so it is divided by that bound (the zero set is
-    // the same; the level set's band stays valid). Its geometry is not asserted: with central
-    // points following the C's ridge along the tube its top level is 1.00 voxel off, at the
-    // threshold (9.3 when they jumped across the C; README).
-    const samples::DistanceFunction c = [](const glm::dvec3& p) {
-        const double turn = (p.z - 32.0) * kPi / 12.0;
+    const samples::DistanceFunction c = [radiansPerVoxel](const glm::dvec3& p) {
+        const double turn = (p.z - 32.0) * radiansPerVoxel;
         const glm::dvec2 q(p.x - 32.0, p.y - 32.0);
         const double angle = std::atan2(q.y, q.x) - turn;
         const double wrapped = std::remainder(angle, 2.0 * kPi); // (-pi, pi]: the gap is around 0
@@ -219,13 +216,27 @@ TEST(Graph, TwistingCStaysOneTube)
             }
             inPlane = best;
         }
-        const double lipschitz = std::sqrt(1.0 + std::pow(14.5 * kPi / 12.0, 2.0));
+        const double lipschitz = std::sqrt(1.0 + std::pow(14.5 * radiansPerVoxel, 2.0));
         inPlane /= lipschitz;
         const double along = (std::abs(p.z - 32.0) - 16.0) / lipschitz;
         return std::max(inPlane, along) > 0.0 ? glm::length(glm::dvec2(std::max(inPlane, 0.0), std::max(along, 0.0)))
                                                : std::max(inPlane, along);
     };
-    const Volume volume = samples::levelSetFromDistance(c, {64, 64, 64}, 1.0, "twisting C");
+    return samples::levelSetFromDistance(c, {64, 64, 64}, 1.0, "twisting C");
+}
+
+} // namespace
+
+TEST(Graph, TwistingCStaysOneTube)
+{
+    // The C turning 15 degrees per voxel: its centroid lies in the gap, its central point on the
+    // arc, and from one slice to the next (30 degrees, 6.3 voxels along the arc) the sections
+    // overlap in part only, and their ends change. The slab joins them: one tube, no events, the
+    // isosurface's topology (a sphere). (The old tiler's main path failed on these contours with
+    // an internal error.) Its geometry is not asserted: with central points following the C's
+    // ridge along the tube its top level is 1.00 voxel off, at the threshold (9.3 when they
+    // jumped across the C; README).
+    const Volume volume = twistingC(kPi / 12.0);
     MeshOptions options;
     options.slicing.axis = Axis::Z;
     const Reconstruction reconstruction(volume, options);
@@ -237,6 +248,24 @@ TEST(Graph, TwistingCStaysOneTube)
     EXPECT_EQ(reference.euler, 2);
     EXPECT_EQ(t.euler, reference.euler);
     EXPECT_EQ(t.components, reference.components);
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): the C turning 10 degrees per voxel. Its top end contour's
+// own central point lay across the C from the last slice's, and the end band turned a quarter
+// turn: 6.2 voxels off. The end contour now takes the followed point where its own puts the band
+// out of register (closeEnds): 1.8 voxels. What is left is the cap: the apex is sought along the
+// axis through the central point, where the twisted end is lower than at the C's far corner
+// (1.6 voxels higher), and the end contour is not star-shaped, so the cap is flat there.
+TEST(Graph, DISABLED_KnownGapSlowlyTwistingCWithinAVoxel)
+{
+    const Volume volume = twistingC(kPi / 18.0);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    const TriangleMesh mesh = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
+    const Validation v = Validator(volume).validate(mesh);
+    EXPECT_EQ(v.topology.euler, 2);
+    EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
 }
 
 TEST(Graph, JunctionsDoNotDependOnTheThreads)
