@@ -87,6 +87,51 @@ struct DirectPixels {
     glm::ivec2 lo{1}, hi{0}; // corners whose four pixels are readable: none by default
 };
 
+// Which seeds (east-facing cracks, sorted (v, u)) a walk has passed. A bitmap over the seeds' own
+// box where that box is small against their number; else, for seeds scattered far apart (two
+// small objects side by side in one plane, 10^8 pixels apart), a flag per seed found by binary
+// search, so memory follows the seeds, not the gap between them.
+class SeedMarks {
+public:
+    explicit SeedMarks(const std::vector<glm::ivec2>& seeds) : mSeeds(seeds)
+    {
+        mLo = mHi = seeds.front();
+        for (const glm::ivec2& p : seeds) { mLo = glm::min(mLo, p); mHi = glm::max(mHi, p); }
+        const double pixels = (static_cast<double>(mHi.x) - mLo.x + 1.0) * (static_cast<double>(mHi.y) - mLo.y + 1.0);
+        mBitmap = pixels <= std::max(double(1 << 22), 64.0 * static_cast<double>(seeds.size()));
+        mWidth = mBitmap ? mHi.x - mLo.x + 1 : 0;
+        mFlags.assign(mBitmap ? static_cast<std::size_t>(pixels) : seeds.size(), 0);
+    }
+    bool seen(const glm::ivec2& p) const
+    {
+        const std::ptrdiff_t k = index(p);
+        return k >= 0 && mFlags[static_cast<std::size_t>(k)];
+    }
+    void mark(const glm::ivec2& p)
+    {
+        const std::ptrdiff_t k = index(p);
+        if (k >= 0) mFlags[static_cast<std::size_t>(k)] = 1;
+    }
+
+private:
+    // The flag of pixel p, or -1 if p is no seed (outside the box, for the bitmap).
+    std::ptrdiff_t index(const glm::ivec2& p) const
+    {
+        if (p.x < mLo.x || p.y < mLo.y || p.x > mHi.x || p.y > mHi.y) return -1;
+        if (mBitmap) return static_cast<std::ptrdiff_t>(p.y - mLo.y) * mWidth + (p.x - mLo.x);
+        const auto it = std::lower_bound(mSeeds.begin(), mSeeds.end(), p, [](const glm::ivec2& a, const glm::ivec2& b) {
+            return a.y != b.y ? a.y < b.y : a.x < b.x;
+        });
+        return it != mSeeds.end() && *it == p ? it - mSeeds.begin() : -1;
+    }
+
+    const std::vector<glm::ivec2>& mSeeds;
+    glm::ivec2 mLo{0}, mHi{0};
+    bool mBitmap = true;
+    int mWidth = 0;
+    std::vector<std::uint8_t> mFlags;
+};
+
 // The chain-code walk over every loop of an image, seeded from its east-facing cracks. `inside`
 // must read false outside [boxMin, boxMax] so that every walk closes; `value` is the field;
 // `saddleJoins(corner)` says whether the diagonal inside pixels of a saddle are one region.
@@ -97,20 +142,10 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
 {
     std::vector<BoundaryLoop> loops;
     if (eastCracks.empty()) return loops;
-    // Visited seeds, on a bitmap over the seeds' own box: it stays small however large the plane
-    // (two small objects far apart), and a walk only needs to mark the seeds it passes.
-    glm::ivec2 lo = eastCracks.front(), hi = eastCracks.front();
-    for (const glm::ivec2& p : eastCracks) { lo = glm::min(lo, p); hi = glm::max(hi, p); }
-    const int width = hi.x - lo.x + 1, height = hi.y - lo.y + 1;
-    std::vector<std::uint8_t> visited(static_cast<std::size_t>(width) * height, 0);
-    auto seen = [&](glm::ivec2 p) {
-        return p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y &&
-               visited[static_cast<std::size_t>(p.y - lo.y) * width + (p.x - lo.x)];
-    };
-    auto mark = [&](glm::ivec2 p) {
-        if (p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y)
-            visited[static_cast<std::size_t>(p.y - lo.y) * width + (p.x - lo.x)] = 1;
-    };
+    // A walk only needs to mark the seeds it passes.
+    SeedMarks visited(eastCracks);
+    auto seen = [&](glm::ivec2 p) { return visited.seen(p); };
+    auto mark = [&](glm::ivec2 p) { visited.mark(p); };
     const std::size_t maxCorners = 4 * static_cast<std::size_t>(boxMax.x - boxMin.x + 2) * (boxMax.y - boxMin.y + 2) + 4;
 
     // Corner c's pixel c + kLeft[k], as an offset from pixel c in the direct array.

@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <tuple>
 
 namespace pipetile {
 
@@ -189,9 +190,30 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
 
 namespace {
 
-// The slab's voxels labelled by connected region: inside voxels 8-connected in a layer (as the
-// boundary walk joins inside pixels), outside voxels 4-connected, both joined along w; every
-// outside voxel on the box's rim joins one exterior.
+// The slab's layers: both planes and every voxel plane strictly between them (the field is linear
+// in w between voxel planes, so these decide connectivity along w), each with its image read.
+struct SlabLayers {
+    std::vector<double> w;
+    std::vector<SlicePlane> planes;
+    bool levelSet = false;
+    SlabLayers(const Volume& volume, const SlicePlan& plan, double below, double above)
+        : levelSet(volume.volumeClass() == VolumeClass::LevelSet)
+    {
+        w.push_back(below);
+        for (double layer = std::floor(below) + 1.0; layer < above; layer += 1.0)
+            if (layer > below) w.push_back(layer);
+        w.push_back(above);
+        for (double layer : w) {
+            planes.emplace_back(volume, plan, layer);
+            planes.back().eastCracks(); // reads the plane's image, with its bridges (slicer.h)
+        }
+    }
+    int depth() const { return static_cast<int>(w.size()); }
+};
+
+// The slab's voxels in a pixel box labelled by connected region: inside voxels 8-connected in a
+// layer (as the boundary walk joins inside pixels), outside voxels 4-connected, both joined along
+// w; every outside voxel on the box's rim joins one exterior.
 struct SlabLabels {
     glm::ivec2 lo{0};
     int width = 0, height = 0, depth = 0;
@@ -202,35 +224,31 @@ struct SlabLabels {
     }
 };
 
-SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below, const PlaneLoops& above)
+// `box` widened by `margin` on every side, within the plan's pixel box (in 64 bits: the margin
+// may outgrow the distance to the end of int).
+PixelBox widened(const PixelBox& box, std::int64_t margin, const SlicePlan& plan)
 {
-    // The layers: both planes and every voxel plane strictly between them (the field is linear
-    // in w between voxel planes, so these decide connectivity along w).
-    std::vector<double> layers{below.w};
-    for (double w = std::floor(below.w) + 1.0; w < above.w; w += 1.0)
-        if (w > below.w) layers.push_back(w);
-    layers.push_back(above.w);
-    std::vector<SlicePlane> planes;
-    for (double w : layers) {
-        planes.emplace_back(volume, plan, w);
-        planes.back().eastCracks(); // reads the plane's image, with its bridges (slicer.h)
+    PixelBox out;
+    for (int k = 0; k < 2; ++k) {
+        out.min[k] = static_cast<int>(std::max<std::int64_t>(std::int64_t(box.min[k]) - margin, plan.pixelMin[k]));
+        out.max[k] = static_cast<int>(std::min<std::int64_t>(std::int64_t(box.max[k]) + margin, plan.pixelMax[k]));
     }
-    // The pixels: every loop of both planes, with a margin that grows with the slab's thickness (a
-    // tube leaning out between the planes), doubled while the inside touches the box's rim.
-    PixelBox box{glm::ivec2(std::numeric_limits<int>::max()), glm::ivec2(std::numeric_limits<int>::min())};
-    for (const PlaneLoops* plane : {&below, &above})
-        for (const BoundaryLoop* loop : plane->loops) {
-            const PixelBox b = boxOf(*loop);
-            box.min = glm::min(box.min, b.min);
-            box.max = glm::max(box.max, b.max);
-        }
-    int margin = 2 + static_cast<int>(std::ceil(2.0 * (above.w - below.w)));
+    return out;
+}
+
+// Labels the slab's voxels over `box` widened by `margin`, doubling the margin (which it updates)
+// while the inside touches the rim, so that every inside region met lies wholly in the box (a
+// tube leaning out between the planes, a bridge between them).
+SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const PixelBox& box, std::int64_t& margin)
+{
+    const std::vector<SlicePlane>& planes = layers.planes;
     SlabLabels slab;
-    slab.depth = static_cast<int>(layers.size());
+    slab.depth = layers.depth();
     std::vector<std::uint8_t> inside;
-    for (bool touches = true; touches; margin *= 2) {
-        slab.lo = glm::max(box.min - margin, plan.pixelMin);
-        const glm::ivec2 hi = glm::min(box.max + margin, plan.pixelMax);
+    for (bool touches = true; touches;) {
+        const PixelBox pixels = widened(box, margin, plan);
+        slab.lo = pixels.min;
+        const glm::ivec2 hi = pixels.max;
         slab.width = hi.x - slab.lo.x + 1;
         slab.height = hi.y - slab.lo.y + 1;
         inside.assign(static_cast<std::size_t>(slab.width) * slab.height * slab.depth, 0);
@@ -244,6 +262,7 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
                 }
         // The plan's box holds every active voxel: it cannot grow past it.
         touches = touches && (slab.lo != plan.pixelMin || hi != plan.pixelMax);
+        if (touches) margin *= 2;
     }
     const std::int32_t exterior = static_cast<std::int32_t>(inside.size());
     slab.labels = Labels(inside.size() + 1);
@@ -251,20 +270,20 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
     // them) are joined or not as volumeToMesh decides, between two voxel planes; a layer between
     // voxel planes shows such a contact in its image as a bridge (slicer.h).
     auto acrossVoxelPlanes = [&](int l) {
-        return l + 1 < slab.depth && layers[l] == std::floor(layers[l]) && layers[l + 1] == layers[l] + 1.0;
+        return l + 1 < slab.depth && layers.w[l] == std::floor(layers.w[l]) && layers.w[l + 1] == layers.w[l] + 1.0;
     };
     auto insideAt = [&](int l, const glm::ivec2& q) {
         const glm::ivec2 r = q - slab.lo;
         return r.x >= 0 && r.y >= 0 && r.x < slab.width && r.y < slab.height && inside[slab.id(l, q)];
     };
-    const bool levelSet = volume.volumeClass() == VolumeClass::LevelSet;
     auto linkAcrossSaddles = [&](int l, const glm::ivec2& p, bool in) {
         auto layerPair = [&](int plane, const glm::ivec2& q) { return insideAt(l + plane, q); };
         for (const glm::ivec2 step : {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
             const glm::ivec2 q = p + step;
             if (insideAt(l + 1, q) != in || insideAt(l, q) == in || insideAt(l + 1, p) == in) continue;
             // p and q are the inside pair, or the outside pair whose partner pair is (q, p).
-            const bool insideJoined = in ? contactJoins(levelSet, layerPair, p, q) : contactJoins(levelSet, layerPair, q, p);
+            const bool insideJoined =
+                in ? contactJoins(layers.levelSet, layerPair, p, q) : contactJoins(layers.levelSet, layerPair, q, p);
             if (in == insideJoined) slab.labels.join(slab.id(l, p), slab.id(l + 1, q));
         }
     };
@@ -302,6 +321,67 @@ SlabLabels labelSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoo
     return slab;
 }
 
+// Loops of both planes whose labelling boxes overlap, transitively: each cluster is labelled in
+// its own box, so that far-apart objects in one plane cost their own pixels, not the gap's.
+// Boxes of different clusters are disjoint and each holds every inside region it meets, so no
+// region joins two clusters: the pieces are those one box around all the loops gives.
+struct LoopCluster {
+    PixelBox box;                 // the pixels of its loops
+    std::int64_t margin = 0;      // labelled over box widened by margin
+    std::vector<int> loops;       // below: i, above: below.loops.size() + j
+    bool labelled = false;
+};
+
+// Merges clusters whose labelling boxes overlap until none do; true if any merged.
+bool mergeOverlapping(std::vector<LoopCluster>& clusters, const SlicePlan& plan)
+{
+    bool mergedAny = false;
+    for (bool merged = true; merged;) {
+        merged = false;
+        Labels groups(clusters.size());
+        for (std::size_t a = 0; a < clusters.size(); ++a)
+            for (std::size_t b = a + 1; b < clusters.size(); ++b)
+                if (widened(clusters[a].box, clusters[a].margin, plan).overlaps(widened(clusters[b].box, clusters[b].margin, plan))) {
+                    groups.join(static_cast<std::int32_t>(a), static_cast<std::int32_t>(b));
+                    merged = true;
+                }
+        if (!merged) break;
+        mergedAny = true;
+        // Each group's root is its lowest index: merge the others into it, keeping that order.
+        std::vector<LoopCluster> out;
+        std::vector<int> slot(clusters.size(), -1);
+        for (std::size_t c = 0; c < clusters.size(); ++c) {
+            const std::size_t root = static_cast<std::size_t>(groups.find(static_cast<std::int32_t>(c)));
+            if (root == c) {
+                slot[c] = static_cast<int>(out.size());
+                out.push_back(std::move(clusters[c]));
+                continue;
+            }
+            LoopCluster& into = out[slot[root]];
+            into.box.min = glm::min(into.box.min, clusters[c].box.min);
+            into.box.max = glm::max(into.box.max, clusters[c].box.max);
+            into.margin = std::max(into.margin, clusters[c].margin);
+            into.loops.insert(into.loops.end(), clusters[c].loops.begin(), clusters[c].loops.end());
+            into.labelled = false;
+        }
+        clusters = std::move(out);
+    }
+    return mergedAny;
+}
+
+// The loops of both planes (below first) in clusters, each with its initial margin: 2 pixels and
+// 2 per voxel of the slab's thickness (a tube leaning out between the planes).
+std::vector<LoopCluster> clusterLoops(const SlicePlan& plan, const PlaneLoops& below, const PlaneLoops& above)
+{
+    const std::int64_t margin = 2 + static_cast<std::int64_t>(std::ceil(2.0 * (above.w - below.w)));
+    std::vector<LoopCluster> clusters;
+    int index = 0;
+    for (const PlaneLoops* plane : {&below, &above})
+        for (const BoundaryLoop* loop : plane->loops) clusters.push_back({boxOf(*loop), margin, {index++}, false});
+    mergeOverlapping(clusters, plan);
+    return clusters;
+}
+
 } // namespace
 
 std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
@@ -311,19 +391,42 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
     if (simpleBands(below, above, pieces)) return pieces;
     pieces.clear();
     if (below.loops.empty() && above.loops.empty()) return pieces;
-    SlabLabels slab = labelSlab(volume, plan, below, above);
-    // A loop separates the inside and outside regions beside its first crack; loops separating
-    // the same two lie on one piece.
-    std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> pieceOf;
-    auto place = [&](const BoundaryLoop& loop, int layer, int index, bool isBelow) {
-        const auto [in, out] = pixelsBeside(loop);
-        const std::pair<std::int32_t, std::int32_t> key{slab.labels.find(slab.id(layer, in)), slab.labels.find(slab.id(layer, out))};
-        const auto [it, added] = pieceOf.insert({key, pieces.size()});
-        if (added) pieces.emplace_back();
-        (isBelow ? pieces[it->second].below : pieces[it->second].above).push_back(index);
+    const SlabLayers layers(volume, plan, below.w, above.w);
+    const int belowCount = static_cast<int>(below.loops.size());
+    auto loopOf = [&](int index) -> const BoundaryLoop& {
+        return index < belowCount ? *below.loops[index] : *above.loops[index - belowCount];
     };
-    for (std::size_t i = 0; i < below.loops.size(); ++i) place(*below.loops[i], 0, static_cast<int>(i), true);
-    for (std::size_t j = 0; j < above.loops.size(); ++j) place(*above.loops[j], slab.depth - 1, static_cast<int>(j), false);
+    // A loop separates the inside and outside regions beside its first crack (in its cluster's
+    // labels); loops separating the same two lie on one piece.
+    struct Key { std::int32_t in = 0, out = 0; };
+    std::vector<Key> keys(below.loops.size() + above.loops.size());
+    std::vector<int> clusterOfLoop(keys.size(), -1);
+    std::vector<LoopCluster> clusters = clusterLoops(plan, below, above);
+    // A cluster whose box grew while labelling may now overlap another: merge and label again.
+    do {
+        for (LoopCluster& cluster : clusters) {
+            if (cluster.labelled) continue;
+            SlabLabels slab = labelSlab(layers, plan, cluster.box, cluster.margin);
+            for (int index : cluster.loops) {
+                const auto [in, out] = pixelsBeside(loopOf(index));
+                const int layer = index < belowCount ? 0 : slab.depth - 1;
+                keys[index] = {slab.labels.find(slab.id(layer, in)), slab.labels.find(slab.id(layer, out))};
+            }
+            cluster.labelled = true;
+        }
+    } while (mergeOverlapping(clusters, plan));
+    for (std::size_t c = 0; c < clusters.size(); ++c)
+        for (int index : clusters[c].loops) clusterOfLoop[index] = static_cast<int>(c);
+    // Pieces in order of their first loop, below then above, as one box around all loops gives them.
+    std::map<std::tuple<int, std::int32_t, std::int32_t>, std::size_t> pieceOf;
+    for (int index = 0; index < static_cast<int>(keys.size()); ++index) {
+        const auto [it, added] = pieceOf.insert({{clusterOfLoop[index], keys[index].in, keys[index].out}, pieces.size()});
+        if (added) pieces.emplace_back();
+        if (index < belowCount)
+            pieces[it->second].below.push_back(index);
+        else
+            pieces[it->second].above.push_back(index - belowCount);
+    }
     for (SlabPiece& piece : pieces) piece.kind = classify(piece, below, above);
     return pieces;
 }

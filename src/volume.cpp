@@ -18,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <mutex>
+#include <new>
 #include <sstream>
 #include <streambuf>
 #include <vector>
@@ -63,6 +64,15 @@ const char* fileKind(std::filesystem::file_type type)
 }
 
 // Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
+// Memory ran out while reading: the grid is too large for what this process may use, or a damaged
+// file claims more data than it holds (OpenVDB allocates what the file declares before reading it).
+Error outOfMemoryReading(const std::string& path, const std::string& what)
+{
+    return Error(inQuotes(path) + ": out of memory reading " + what +
+                 "; the grid needs more memory than this process may use (raise the limit, ulimit -v, or clip the "
+                 "grid to the object), or the file is damaged and claims more data than it holds");
+}
+
 std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
 {
     initializeOpenVdb();
@@ -80,6 +90,8 @@ std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
     auto file = std::make_unique<openvdb::io::File>(path);
     try {
         file->open(/*delayLoad=*/false);
+    } catch (const std::bad_alloc&) {
+        throw outOfMemoryReading(path, "it");
     } catch (const std::exception& e) {
         throw Error(inQuotes(path) + ": not a readable VDB file (" + e.what() +
                     "); check that it is a complete .vdb written by OpenVDB 3 or later");
@@ -122,6 +134,8 @@ std::vector<GridSummary> summarizeGrids(openvdb::io::File& file, const std::stri
     try {
         const openvdb::GridPtrVecPtr metadata = file.readAllGridMetadata();
         for (const openvdb::GridBase::Ptr& g : *metadata) grids.push_back(summarize(*g));
+    } catch (const std::bad_alloc&) {
+        throw outOfMemoryReading(path, "its grid descriptions");
     } catch (const std::exception& e) {
         throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
                     "); the file may be truncated or damaged");
@@ -383,6 +397,8 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
         if (!base) base = file->readGrid(name);
     } catch (const Error&) {
         throw;
+    } catch (const std::bad_alloc&) {
+        throw outOfMemoryReading(path, "grid " + inQuotes(name));
     } catch (const std::exception& e) {
         throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) + " (" + e.what() +
                     "); the file may be truncated or damaged");

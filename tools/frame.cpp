@@ -89,6 +89,31 @@ std::string levelPath(const std::string& output, int level)
     return name.string();
 }
 
+std::vector<std::string> staleLevels(const std::string& output, int levels)
+{
+    std::vector<std::string> stale;
+    if (isGlbPath(output)) return stale;
+    const std::filesystem::path p(output);
+    const std::string prefix = p.stem().string() + "_L", extension = p.extension().string();
+    std::error_code ec;
+    const std::filesystem::path folder = p.parent_path().empty() ? std::filesystem::path(".") : p.parent_path();
+    for (std::filesystem::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        if (name.size() <= prefix.size() + extension.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+            name.compare(name.size() - extension.size(), extension.size(), extension) != 0)
+            continue;
+        const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - extension.size());
+        if (digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos) continue;
+        const int level = std::stoi(digits);
+        std::error_code typeError;
+        if (level >= levels && levelPath(output, level) == (p.parent_path() / name).string() &&
+            it->is_regular_file(typeError))
+            stale.push_back(levelPath(output, level));
+    }
+    std::sort(stale.begin(), stale.end());
+    return stale;
+}
+
 bool outputsExist(const std::string& output, const std::string& report, int levels)
 {
     std::error_code ec;
@@ -114,11 +139,17 @@ void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<Na
 }
 
 std::unique_ptr<OutputSet> openOutputs(const std::vector<NamedPath>& outputs, const std::string& owner,
-                                       const Notify& notify)
+                                       const Notify& notify, const std::vector<std::string>& obsolete)
 {
     std::vector<std::string> paths;
     for (const NamedPath& o : outputs) paths.push_back(o.path);
-    auto set = std::make_unique<OutputSet>(paths, owner);
+    auto set = std::make_unique<OutputSet>(paths, owner, obsolete);
+    const std::vector<std::string>& recovered = set->recovered();
+    if (!recovered.empty())
+        notify("note", format("finished the commit of a pipetile run that was killed while it replaced its outputs "
+                              "(%zu file%s: %s%s), so they are all of that run",
+                              recovered.size(), recovered.size() == 1 ? "" : "s", recovered.front().c_str(),
+                              recovered.size() == 1 ? "" : ", ..."));
     const std::vector<std::string>& stale = set->staleRemoved();
     if (!stale.empty())
         notify("note", format("removed %zu temporary file%s left by a pipetile run that was killed (%s%s)", stale.size(),
@@ -169,7 +200,12 @@ json meshFrame(const FrameJob& job)
     if (!job.report.empty()) outputs.push_back({job.report, "report"});
     if (!job.html.empty()) outputs.push_back({job.html, "HTML report"});
     refuseClobbering({{job.input, "input volume"}}, outputs);
-    std::unique_ptr<OutputSet> files = openOutputs(outputs, job.owner, job.notify);
+    // Levels of an earlier run with more levels go with this commit, so the set is this run's
+    // alone; never the input, whatever its name.
+    std::vector<std::string> obsolete;
+    for (const std::string& stale : staleLevels(job.output, job.options.levels))
+        if (job.input.empty() || !sameFile(stale, job.input)) obsolete.push_back(stale);
+    std::unique_ptr<OutputSet> files = openOutputs(outputs, job.owner, job.notify, obsolete);
 
     const Volume volume = job.read ? job.read() : readVolume(job.input, job.volume);
     noteIsovalue(volume, job.notify);

@@ -20,6 +20,12 @@ namespace pipetile::tools {
 /// name_L<k>.ext next to the path the user gave.
 std::string levelPath(const std::string& output, int level);
 
+/// Level files an earlier run with more levels left beside `output`: name_L<k>.ext with k >= `levels`,
+/// exactly as levelPath spells them (same folder, stem and extension, k in decimal without
+/// leading zeros), regular files only. Other formats (name_L<k>.obj beside a .ply set), a .glb,
+/// and any other name are not the set's and stay. None for a .glb output.
+std::vector<std::string> staleLevels(const std::string& output, int levels);
+
 /// @throw Error naming `path` if its folder does not exist; `what` names the file ("meshes").
 void checkWritableTarget(const std::string& path, const char* what);
 
@@ -43,10 +49,12 @@ struct NamedPath {
 void refuseClobbering(const std::vector<NamedPath>& inputs, const std::vector<NamedPath>& outputs);
 
 /// The run's outputs as one transaction, locked before any work: a concurrent run writing any of
-/// them fails now, and is told `owner`. Temporaries a killed run left are removed, with a note.
+/// them fails now, and is told `owner`. `obsolete` files go when it commits, and come back if it
+/// fails. Temporaries a killed run left are removed, and a commit it left half done is finished,
+/// with a note.
 /// @throw Error as OutputSet.
 std::unique_ptr<OutputSet> openOutputs(const std::vector<NamedPath>& outputs, const std::string& owner,
-                                       const Notify& notify);
+                                       const Notify& notify, const std::vector<std::string>& obsolete = {});
 
 /// Notes on the isovalue that deserve a second look: the default fog isovalue left hot voxels
 /// out, or so few voxels lie inside that the mesh can only be specks.

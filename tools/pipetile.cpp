@@ -20,8 +20,10 @@
 #include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -368,22 +370,89 @@ std::string commandLine(int argc, char** argv)
     return line;
 }
 
-// What to tell a user whose run ran out of memory (std::bad_alloc, or a container asked for more
-// than it can hold): which run, and what makes it smaller.
-std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate)
+// Which resource an exception says ran out: memory (std::bad_alloc, or a container asked for more
+// than it can hold), or a thread that could not start for want of address space or processes
+// (std::thread's std::system_error, TBB's "pthread_create has failed" std::runtime_error).
+enum class Exhausted { Nothing, Memory, Threads };
+
+Exhausted exhausted(const std::exception& e)
 {
+    if (dynamic_cast<const std::bad_alloc*>(&e) || dynamic_cast<const std::length_error*>(&e)) return Exhausted::Memory;
+    if (const auto* failure = dynamic_cast<const std::system_error*>(&e))
+        if (failure->code() == std::errc::resource_unavailable_try_again || failure->code() == std::errc::not_enough_memory)
+            return Exhausted::Threads;
+    if (std::strncmp(e.what(), "pthread_create has failed", 25) == 0) return Exhausted::Threads;
+    return Exhausted::Nothing;
+}
+
+// What to tell a user whose run ran out of memory or threads: which run, and what makes it smaller.
+std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate, Exhausted what = Exhausted::Memory)
+{
+    const bool threads = what == Exhausted::Threads;
+    const std::string ranOut = threads ? "out of memory for a new thread (or the process limit, ulimit -u, is reached)"
+                                       : "out of memory";
     if (mesh) {
         const std::string input = mesh->input.empty() ? std::string("the phantom") : "'" + mesh->input + "'";
-        return "out of memory meshing " + input + " with --levels " + std::to_string(mesh->levels) + ", --rays " +
-               std::to_string(mesh->rays) + ", --spacing " + formatNumber(mesh->spacing) +
-               ": lower --levels or --rays, raise --spacing, or clip the grid to the object";
+        return ranOut + " meshing " + input + " with --levels " + std::to_string(mesh->levels) + ", --rays " +
+               std::to_string(mesh->rays) + ", --spacing " + formatNumber(mesh->spacing) + ": " +
+               (threads ? "use fewer --threads, " : "") +
+               "lower --levels or --rays, raise --spacing, or clip the grid to the object";
     }
     if (validate)
-        return "out of memory validating '" + validate->mesh + "' against '" + validate->input +
-               "': the isosurface of the whole grid and the mesh must fit; clip the grid to the object or "
+        return ranOut + " validating '" + validate->mesh + "' against '" + validate->input + "': " +
+               (threads ? "use fewer --threads; " : "") +
+               "the isosurface of the whole grid and the mesh must fit; clip the grid to the object or "
                "validate a coarser level";
-    return "out of memory: use a smaller grid (clip it to the object) or fewer levels";
+    return ranOut + ": use a smaller grid (clip it to the object) or fewer levels";
 }
+
+// Resources that run out where no catch sees them end in std::terminate: a thread a library starts
+// before main (log4cplus, under OpenVDB), a TBB worker starting another, a destructor that
+// allocates while an earlier std::bad_alloc unwinds (OpenVDB's Tree::clear). There the run is
+// abandoned as on a signal, so nothing of it stays, and it exits 1 with its command's message
+// (set once the command line is parsed; plain pointers, as the handler may run before any
+// constructor of this file). Any other exception keeps the default diagnosis and abort.
+const char* gMemoryMessage = nullptr;
+const char* gThreadsMessage = nullptr;
+std::terminate_handler gDefaultTerminate = nullptr;
+
+[[noreturn]] void exitOnExhaustion()
+{
+    Exhausted what = Exhausted::Nothing;
+    if (const std::exception_ptr current = std::current_exception()) {
+        try {
+            std::rethrow_exception(current);
+        } catch (const std::exception& e) {
+            what = exhausted(e);
+        } catch (...) {
+        }
+    }
+    if (what == Exhausted::Nothing) {
+        if (gDefaultTerminate) gDefaultTerminate();
+        std::abort();
+    }
+    pipetile::abandonOutputs();
+    const char* message = what == Exhausted::Threads ? gThreadsMessage : gMemoryMessage;
+    if (!message)
+        message = "out of memory starting pipetile (a thread or buffer of its libraries could not be made): the "
+                  "address-space limit (ulimit -v) or the process limit (ulimit -u) is too small; raise it";
+    std::fprintf(stderr, "pipetile: error: %s\n", message);
+    std::_Exit(1);
+}
+
+void setExhaustionMessages(const MeshArgs* mesh, const ValidateArgs* validate)
+{
+    static const std::string memory = outOfMemory(mesh, validate, Exhausted::Memory);
+    static const std::string threads = outOfMemory(mesh, validate, Exhausted::Threads);
+    gMemoryMessage = memory.c_str();
+    gThreadsMessage = threads.c_str();
+}
+
+// Installed from the executable's preinit array, which runs before the shared libraries'
+// constructors, so that a thread log4cplus cannot start there ends in the message too.
+void installTerminateHandler(int, char**, char**) { gDefaultTerminate = std::set_terminate(exitOnExhaustion); }
+__attribute__((used, section(".preinit_array"))) void (*const gInstallTerminateHandler)(int, char**, char**) =
+    installTerminateHandler;
 
 // The pattern of a sequence's outputs (-o, --report): it must hold the frame number too.
 std::optional<pipetile::tools::FramePattern> outputPattern(const std::string& text, const char* option)
@@ -423,13 +492,12 @@ pipetile::tools::FrameOutcome meshSequenceFrame(const MeshArgs& args, pipetile::
         outcome.report = pipetile::tools::meshFrame(job);
     } catch (const pipetile::Error& e) {
         outcome.error = pipetile::tools::frameError(frame, e.what());
-    } catch (const std::bad_alloc&) {
-        outcome.error = pipetile::tools::frameError(frame, outOfMemory(&frameArgs, nullptr));
-    } catch (const std::length_error&) {
-        outcome.error = pipetile::tools::frameError(frame, outOfMemory(&frameArgs, nullptr));
     } catch (const std::exception& e) {
-        outcome.error = pipetile::tools::frameError(frame, std::string("internal error: ") + e.what() +
-                                                               " (please report it with the input)");
+        const Exhausted what = exhausted(e);
+        outcome.error = pipetile::tools::frameError(frame, what != Exhausted::Nothing
+                                                               ? outOfMemory(&frameArgs, nullptr, what)
+                                                               : std::string("internal error: ") + e.what() +
+                                                                     " (please report it with the input)");
     }
     if (!outcome.error.empty()) {
         outcome.status = "failed";
@@ -574,11 +642,9 @@ int main(int argc, char** argv)
         return 2;
     }
 
-    const auto outOfMemoryExit = [&] {
-        std::fprintf(stderr, "pipetile: error: %s\n",
-                     outOfMemory(mesh->parsed() ? &meshArgs : nullptr, validate->parsed() ? &validateArgs : nullptr).c_str());
-        return 1;
-    };
+    const MeshArgs* meshParsed = mesh->parsed() ? &meshArgs : nullptr;
+    const ValidateArgs* validateParsed = validate->parsed() ? &validateArgs : nullptr;
+    setExhaustionMessages(meshParsed, validateParsed);
     try {
         if (mesh->parsed()) {
             if (const auto sequence = pipetile::tools::FramePattern::parse(meshArgs.input))
@@ -609,12 +675,11 @@ int main(int argc, char** argv)
     } catch (const pipetile::Error& e) {
         std::fprintf(stderr, "pipetile: error: %s\n", pipetile::withSettings(e, "--", "").c_str());
         return 1;
-    } catch (const std::bad_alloc&) {
-        return outOfMemoryExit();
-    } catch (const std::length_error&) {
-        return outOfMemoryExit();
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "pipetile: internal error: %s (please report it with the input)\n", e.what());
+        if (const Exhausted what = exhausted(e); what != Exhausted::Nothing)
+            std::fprintf(stderr, "pipetile: error: %s\n", outOfMemory(meshParsed, validateParsed, what).c_str());
+        else
+            std::fprintf(stderr, "pipetile: internal error: %s (please report it with the input)\n", e.what());
         return 1;
     }
     return 2;
