@@ -62,8 +62,8 @@ const char* fileKind(std::filesystem::file_type type)
     }
 }
 
-// Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
-std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
+// Refuses what is not a regular file, before anything opens it (opening a pipe would block).
+void checkReadable(const std::string& path)
 {
     initializeOpenVdb();
     std::error_code ec;
@@ -77,6 +77,12 @@ std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
     if (!std::filesystem::is_regular_file(status))
         throw Error(inQuotes(path) + ": is a " + fileKind(status.type()) +
                     ", not a regular file; .vdb files are read by seeking: save the data to a file first");
+}
+
+// Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
+std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
+{
+    checkReadable(path);
     auto file = std::make_unique<openvdb::io::File>(path);
     try {
         file->open(/*delayLoad=*/false);
@@ -159,11 +165,19 @@ protected:
     }
 };
 
-openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::string& name)
+/// The grids of a file read whole, and the file's format version.
+struct FileGrids {
+    openvdb::GridPtrVecPtr grids;
+    std::uint32_t fileVersion = 0;
+};
+
+/// Every grid of a file of up to kBoundedReadBytes, read from memory; grids null for a larger file.
+/// Lets OpenVDB's exceptions and std::ios_base::failure (the data ends early) through.
+FileGrids readFileGrids(const std::string& path)
 {
     std::error_code ec;
     const std::uintmax_t size = std::filesystem::file_size(path, ec);
-    if (ec || size > kBoundedReadBytes) return nullptr;
+    if (ec || size > kBoundedReadBytes) return {};
     std::vector<char> bytes(static_cast<std::size_t>(size));
     std::ifstream file(path, std::ios::binary);
     if (!file.read(bytes.data(), static_cast<std::streamsize>(size)))
@@ -171,9 +185,16 @@ openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::strin
     MemoryBuffer buffer(bytes);
     std::istream in(&buffer);
     in.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
+    openvdb::io::Stream stream(in, /*delayLoad=*/false);
+    return {stream.getGrids(), stream.fileVersion()};
+}
+
+openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::string& name)
+{
     try {
-        openvdb::io::Stream stream(in, /*delayLoad=*/false);
-        for (const openvdb::GridBase::Ptr& grid : *stream.getGrids())
+        const openvdb::GridPtrVecPtr grids = readFileGrids(path).grids;
+        if (!grids) return nullptr;
+        for (const openvdb::GridBase::Ptr& grid : *grids)
             if (grid->getName() == name) return grid;
     } catch (const openvdb::LookupError&) {
         // Another grid of a type this OpenVDB does not know: read only ours, through io::File.
@@ -183,6 +204,42 @@ openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::strin
                     ": the file ends before the grid's data does; it is truncated or damaged");
     }
     throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " could not be read back");
+}
+
+/// The grid readVolume meshes, from one read of the whole file, when that read settles it: the
+/// grid named `requested`, else the first float grid, as the io::File path would pick them. Null
+/// when that path must decide: a large file, a grid type this OpenVDB does not know, a damaged or
+/// ancient file, or any choice that ends in a message (that path words them). For files without
+/// grid offsets (io::Stream writes none) io::File::open read every grid before the bounded read
+/// read them again, through a seek per node.
+openvdb::FloatGrid::Ptr readChosenGridAtOnce(const std::string& path, const std::string& requested)
+{
+    FileGrids file;
+    try {
+        file = readFileGrids(path);
+    } catch (const std::exception&) {
+        return nullptr;
+    }
+    // io::File's readAllGridMetadata refuses these.
+    if (!file.grids || file.fileVersion < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) return nullptr;
+    std::string name = requested;
+    if (name.empty()) {
+        // io::File lists a file's grids by name (a std::multimap) when the file has grid offsets,
+        // in file order when not: the first float grid in file order is its pick either way only
+        // if no other float grid's name sorts before it.
+        const openvdb::GridBase* first = nullptr;
+        for (const openvdb::GridBase::Ptr& grid : *file.grids) {
+            if (grid->valueType() != "float") continue;
+            if (!first) first = grid.get();
+            else if (grid->getName() < first->getName()) return nullptr;
+        }
+        if (!first) return nullptr;
+        name = first->getName();
+    }
+    // The first grid of that name, as readGridBounded returns it; null if it is not a float grid.
+    for (const openvdb::GridBase::Ptr& grid : *file.grids)
+        if (grid->getName() == name) return openvdb::gridPtrCast<openvdb::FloatGrid>(grid);
+    return nullptr;
 }
 
 Error nonFiniteError(const std::string& where, long long count, bool finiteBackground, const char* what)
@@ -353,6 +410,10 @@ std::vector<GridSummary> listGrids(const std::string& path) { return summarizeGr
 
 Volume readVolume(const std::string& path, const VolumeOptions& options)
 {
+    checkReadable(path);
+    if (openvdb::FloatGrid::Ptr grid = readChosenGridAtOnce(path, options.gridName))
+        return volumeFromGrid(grid, options, path);
+
     auto file = openFile(path);
     const std::vector<GridSummary> grids = summarizeGrids(*file, path);
     if (grids.empty()) throw Error(inQuotes(path) + ": holds no grids; nothing to mesh");
