@@ -266,6 +266,18 @@ openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m, const std::string
     return openvdb::math::Transform::createLinearTransform(rows);
 }
 
+// Calls f(value) for every active value of a grid whose active values all lie in leaf nodes (as
+// volumeFromGrid's grids do: it voxelizes active tiles first), a leaf's value mask at a time: the
+// tree-wide value iterator cost more than the rest of these passes over every active voxel.
+template <typename F>
+void forEachActiveVoxel(const openvdb::FloatGrid& grid, F&& f)
+{
+    for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+        const float* values = leaf->buffer().data();
+        for (auto on = leaf->getValueMask().beginOn(); on; ++on) f(values[on.pos()]);
+    }
+}
+
 // The default fog isovalue: halfway between the background (empty space) and the densest value,
 // 0.5 for a 0..1 density and -500 for a CT-like -1000..0 volume, unless so few voxels are that
 // dense that fewer than kFewestObjectVoxels would lie inside: then the densest value that leaves
@@ -276,26 +288,26 @@ double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
 {
     const double background = grid.background();
     std::vector<float> densest; // a min-heap of the densest values
-    for (auto it = grid.cbeginValueOn(); it; ++it) {
+    forEachActiveVoxel(grid, [&](float value) {
         if (static_cast<long long>(densest.size()) < kFewestObjectVoxels) {
-            densest.push_back(*it);
+            densest.push_back(value);
             std::push_heap(densest.begin(), densest.end(), std::greater<float>());
-        } else if (*it > densest.front()) {
+        } else if (value > densest.front()) {
             std::pop_heap(densest.begin(), densest.end(), std::greater<float>());
-            densest.back() = *it;
+            densest.back() = value;
             std::push_heap(densest.begin(), densest.end(), std::greater<float>());
         }
-    }
+    });
     std::sort(densest.begin(), densest.end(), std::greater<float>());
     // Voxels beyond the isovalue halfway to each candidate, counted in one pass.
     std::vector<double> isos;
     for (float peak : densest) isos.push_back(0.5 * (background + peak)); // decreasing
     std::vector<long long> beyond(isos.size(), 0);
-    for (auto it = grid.cbeginValueOn(); it; ++it) {
+    forEachActiveVoxel(grid, [&](float value) {
         // isos[k] < value for k >= first: the first k with isos[k] < value, isos decreasing.
-        const auto first = std::partition_point(isos.begin(), isos.end(), [&](double iso) { return iso >= *it; });
+        const auto first = std::partition_point(isos.begin(), isos.end(), [&](double iso) { return iso >= value; });
         if (first != isos.end()) ++beyond[first - isos.begin()];
-    }
+    });
     long long count = 0; // voxels beyond isos[k]: those beyond isos[0..k]
     for (std::size_t k = 0; k < isos.size() && densest[k] > background; ++k) {
         count += beyond[k];
@@ -311,8 +323,7 @@ double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
 long long countInside(const openvdb::FloatGrid& grid, VolumeClass volumeClass, double iso)
 {
     long long inside = 0;
-    for (auto it = grid.cbeginValueOn(); it; ++it)
-        inside += (volumeClass == VolumeClass::LevelSet ? *it < iso : *it > iso) ? 1 : 0;
+    forEachActiveVoxel(grid, [&](float value) { inside += (volumeClass == VolumeClass::LevelSet ? value < iso : value > iso) ? 1 : 0; });
     return inside;
 }
 
@@ -483,12 +494,15 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     const double background = grid->background();
     double lo = background, hi = background;
     long long nonFinite = 0;
-    for (auto it = grid->cbeginValueOn(); it; ++it) {
-        const double v = *it;
-        if (!std::isfinite(v)) { ++nonFinite; continue; }
+    forEachActiveVoxel(*grid, [&](float value) {
+        const double v = value;
+        if (!std::isfinite(v)) {
+            ++nonFinite;
+            return;
+        }
         lo = std::min(lo, v);
         hi = std::max(hi, v);
-    }
+    });
     if (nonFinite > 0 || !std::isfinite(background)) throw nonFiniteError(where, nonFinite, std::isfinite(background), "grid");
 
     auto impl = std::make_shared<Volume::Impl>();
