@@ -63,7 +63,6 @@ const char* fileKind(std::filesystem::file_type type)
     }
 }
 
-// Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
 // Memory ran out while reading: the grid is too large for what this process may use, or a damaged
 // file claims more data than it holds (OpenVDB allocates what the file declares before reading it).
 Error outOfMemoryReading(const std::string& path, const std::string& what)
@@ -73,7 +72,8 @@ Error outOfMemoryReading(const std::string& path, const std::string& what)
                  "grid to the object), or the file is damaged and claims more data than it holds");
 }
 
-std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
+// Refuses what is not a regular file, before anything opens it (opening a pipe would block).
+void checkReadable(const std::string& path)
 {
     initializeOpenVdb();
     std::error_code ec;
@@ -87,6 +87,12 @@ std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
     if (!std::filesystem::is_regular_file(status))
         throw Error(inQuotes(path) + ": is a " + fileKind(status.type()) +
                     ", not a regular file; .vdb files are read by seeking: save the data to a file first");
+}
+
+// Opens a file for reading and turns OpenVDB's exceptions into messages a user can act on.
+std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
+{
+    checkReadable(path);
     auto file = std::make_unique<openvdb::io::File>(path);
     try {
         file->open(/*delayLoad=*/false);
@@ -173,11 +179,19 @@ protected:
     }
 };
 
-openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::string& name)
+/// The grids of a file read whole, and the file's format version.
+struct FileGrids {
+    openvdb::GridPtrVecPtr grids;
+    std::uint32_t fileVersion = 0;
+};
+
+/// Every grid of a file of up to kBoundedReadBytes, read from memory; grids null for a larger file.
+/// Lets OpenVDB's exceptions and std::ios_base::failure (the data ends early) through.
+FileGrids readFileGrids(const std::string& path)
 {
     std::error_code ec;
     const std::uintmax_t size = std::filesystem::file_size(path, ec);
-    if (ec || size > kBoundedReadBytes) return nullptr;
+    if (ec || size > kBoundedReadBytes) return {};
     std::vector<char> bytes(static_cast<std::size_t>(size));
     std::ifstream file(path, std::ios::binary);
     if (!file.read(bytes.data(), static_cast<std::streamsize>(size)))
@@ -185,9 +199,16 @@ openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::strin
     MemoryBuffer buffer(bytes);
     std::istream in(&buffer);
     in.exceptions(std::ios::failbit | std::ios::badbit | std::ios::eofbit);
+    openvdb::io::Stream stream(in, /*delayLoad=*/false);
+    return {stream.getGrids(), stream.fileVersion()};
+}
+
+openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::string& name)
+{
     try {
-        openvdb::io::Stream stream(in, /*delayLoad=*/false);
-        for (const openvdb::GridBase::Ptr& grid : *stream.getGrids())
+        const openvdb::GridPtrVecPtr grids = readFileGrids(path).grids;
+        if (!grids) return nullptr;
+        for (const openvdb::GridBase::Ptr& grid : *grids)
             if (grid->getName() == name) return grid;
     } catch (const openvdb::LookupError&) {
         // Another grid of a type this OpenVDB does not know: read only ours, through io::File.
@@ -197,6 +218,42 @@ openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::strin
                     ": the file ends before the grid's data does; it is truncated or damaged");
     }
     throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " could not be read back");
+}
+
+/// The grid readVolume meshes, from one read of the whole file, when that read settles it: the
+/// grid named `requested`, else the first float grid, as the io::File path would pick them. Null
+/// when that path must decide: a large file, a grid type this OpenVDB does not know, a damaged or
+/// ancient file, or any choice that ends in a message (that path words them). For files without
+/// grid offsets (io::Stream writes none) io::File::open read every grid before the bounded read
+/// read them again, through a seek per node.
+openvdb::FloatGrid::Ptr readChosenGridAtOnce(const std::string& path, const std::string& requested)
+{
+    FileGrids file;
+    try {
+        file = readFileGrids(path);
+    } catch (const std::exception&) {
+        return nullptr;
+    }
+    // io::File's readAllGridMetadata refuses these.
+    if (!file.grids || file.fileVersion < openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) return nullptr;
+    std::string name = requested;
+    if (name.empty()) {
+        // io::File lists a file's grids by name (a std::multimap) when the file has grid offsets,
+        // in file order when not: the first float grid in file order is its pick either way only
+        // if no other float grid's name sorts before it.
+        const openvdb::GridBase* first = nullptr;
+        for (const openvdb::GridBase::Ptr& grid : *file.grids) {
+            if (grid->valueType() != "float") continue;
+            if (!first) first = grid.get();
+            else if (grid->getName() < first->getName()) return nullptr;
+        }
+        if (!first) return nullptr;
+        name = first->getName();
+    }
+    // The first grid of that name, as readGridBounded returns it; null if it is not a float grid.
+    for (const openvdb::GridBase::Ptr& grid : *file.grids)
+        if (grid->getName() == name) return openvdb::gridPtrCast<openvdb::FloatGrid>(grid);
+    return nullptr;
 }
 
 Error nonFiniteError(const std::string& where, long long count, bool finiteBackground, const char* what)
@@ -223,6 +280,18 @@ openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m, const std::string
     return openvdb::math::Transform::createLinearTransform(rows);
 }
 
+// Calls f(value) for every active value of a grid whose active values all lie in leaf nodes (as
+// volumeFromGrid's grids do: it voxelizes active tiles first), a leaf's value mask at a time: the
+// tree-wide value iterator cost more than the rest of these passes over every active voxel.
+template <typename F>
+void forEachActiveVoxel(const openvdb::FloatGrid& grid, F&& f)
+{
+    for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+        const float* values = leaf->buffer().data();
+        for (auto on = leaf->getValueMask().beginOn(); on; ++on) f(values[on.pos()]);
+    }
+}
+
 // The default fog isovalue: halfway between the background (empty space) and the densest value,
 // 0.5 for a 0..1 density and -500 for a CT-like -1000..0 volume, unless so few voxels are that
 // dense that fewer than kFewestObjectVoxels would lie inside: then the densest value that leaves
@@ -233,26 +302,26 @@ double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
 {
     const double background = grid.background();
     std::vector<float> densest; // a min-heap of the densest values
-    for (auto it = grid.cbeginValueOn(); it; ++it) {
+    forEachActiveVoxel(grid, [&](float value) {
         if (static_cast<long long>(densest.size()) < kFewestObjectVoxels) {
-            densest.push_back(*it);
+            densest.push_back(value);
             std::push_heap(densest.begin(), densest.end(), std::greater<float>());
-        } else if (*it > densest.front()) {
+        } else if (value > densest.front()) {
             std::pop_heap(densest.begin(), densest.end(), std::greater<float>());
-            densest.back() = *it;
+            densest.back() = value;
             std::push_heap(densest.begin(), densest.end(), std::greater<float>());
         }
-    }
+    });
     std::sort(densest.begin(), densest.end(), std::greater<float>());
     // Voxels beyond the isovalue halfway to each candidate, counted in one pass.
     std::vector<double> isos;
     for (float peak : densest) isos.push_back(0.5 * (background + peak)); // decreasing
     std::vector<long long> beyond(isos.size(), 0);
-    for (auto it = grid.cbeginValueOn(); it; ++it) {
+    forEachActiveVoxel(grid, [&](float value) {
         // isos[k] < value for k >= first: the first k with isos[k] < value, isos decreasing.
-        const auto first = std::partition_point(isos.begin(), isos.end(), [&](double iso) { return iso >= *it; });
+        const auto first = std::partition_point(isos.begin(), isos.end(), [&](double iso) { return iso >= value; });
         if (first != isos.end()) ++beyond[first - isos.begin()];
-    }
+    });
     long long count = 0; // voxels beyond isos[k]: those beyond isos[0..k]
     for (std::size_t k = 0; k < isos.size() && densest[k] > background; ++k) {
         count += beyond[k];
@@ -268,8 +337,7 @@ double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
 long long countInside(const openvdb::FloatGrid& grid, VolumeClass volumeClass, double iso)
 {
     long long inside = 0;
-    for (auto it = grid.cbeginValueOn(); it; ++it)
-        inside += (volumeClass == VolumeClass::LevelSet ? *it < iso : *it > iso) ? 1 : 0;
+    forEachActiveVoxel(grid, [&](float value) { inside += (volumeClass == VolumeClass::LevelSet ? value < iso : value > iso) ? 1 : 0; });
     return inside;
 }
 
@@ -367,6 +435,10 @@ std::vector<GridSummary> listGrids(const std::string& path) { return summarizeGr
 
 Volume readVolume(const std::string& path, const VolumeOptions& options)
 {
+    checkReadable(path);
+    if (openvdb::FloatGrid::Ptr grid = readChosenGridAtOnce(path, options.gridName))
+        return volumeFromGrid(grid, options, path);
+
     auto file = openFile(path);
     const std::vector<GridSummary> grids = summarizeGrids(*file, path);
     if (grids.empty()) throw Error(inQuotes(path) + ": holds no grids; nothing to mesh");
@@ -438,12 +510,15 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     const double background = grid->background();
     double lo = background, hi = background;
     long long nonFinite = 0;
-    for (auto it = grid->cbeginValueOn(); it; ++it) {
-        const double v = *it;
-        if (!std::isfinite(v)) { ++nonFinite; continue; }
+    forEachActiveVoxel(*grid, [&](float value) {
+        const double v = value;
+        if (!std::isfinite(v)) {
+            ++nonFinite;
+            return;
+        }
         lo = std::min(lo, v);
         hi = std::max(hi, v);
-    }
+    });
     if (nonFinite > 0 || !std::isfinite(background)) throw nonFiniteError(where, nonFinite, std::isfinite(background), "grid");
 
     auto impl = std::make_shared<Volume::Impl>();

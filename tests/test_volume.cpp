@@ -4,6 +4,7 @@
 #include "test_util.h"
 
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 
 #include <algorithm>
 #include <cmath>
@@ -132,6 +133,35 @@ TEST(Volume, UnnamedFloatGridIsMeshed)
     EXPECT_EQ(volume.gridName(), "");
     EXPECT_EQ(volume.volumeClass(), VolumeClass::LevelSet);
     EXPECT_NEAR(volume.signedField({2.5, 0.0, 0.0}), 0.0, 1e-6); // the sphere of radius 2.5
+}
+
+TEST(Volume, FirstFloatGridIsTheOneTheGridListShowsFirst)
+{
+    // Two float grids written 'b' then 'a', with a vector grid before them. io::File lists the grids
+    // of a file with grid offsets (io::File writes them) by name, and those of a file without
+    // (io::Stream) in file order: the grid mesh picks is the first float grid of that list,
+    // however the file was read.
+    TempDir dir;
+    openvdb::FloatGrid::Ptr b = smallLevelSet(), a = smallLevelSet();
+    b->setName("b");
+    a->setName("a");
+    auto velocity = openvdb::Vec3SGrid::create();
+    velocity->setName("0velocity");
+    velocity->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3s(1, 0, 0));
+    const openvdb::GridCPtrVec grids{velocity, b, a};
+    openvdb::io::File(dir.path("offsets.vdb")).write(grids);
+    {
+        std::ofstream out(dir.path("stream.vdb"), std::ios::binary);
+        openvdb::io::Stream(out).write(grids);
+    }
+    for (const auto& [file, first] : {std::pair{"offsets.vdb", "a"}, std::pair{"stream.vdb", "b"}}) {
+        const std::vector<GridSummary> listed = listGrids(dir.path(file));
+        const auto firstFloat = std::find_if(listed.begin(), listed.end(), [](const GridSummary& g) { return g.valueType == "float"; });
+        ASSERT_NE(firstFloat, listed.end()) << file;
+        EXPECT_EQ(firstFloat->name, first) << file;
+        EXPECT_EQ(readVolume(dir.path(file)).gridName(), first) << file;
+        EXPECT_EQ(readVolume(dir.path(file), {"b", {}}).gridName(), "b") << file; // by name, either way
+    }
 }
 
 TEST(Volume, EmptyGridIsRefused)
