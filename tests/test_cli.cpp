@@ -1000,6 +1000,31 @@ std::map<std::string, std::string> meshBytes(const std::string& folder)
     return files;
 }
 
+// What a run interrupted over an earlier run's outputs may leave: the earlier run's files (the
+// phantom at 8 levels, 8 rays, and its report, written to `earlier`), byte for byte, or the
+// interrupted run's whole set (9 rays, as an uninterrupted run writes it to `fresh`).
+struct EarlierAndComplete {
+    std::string args; // both runs': 8 levels and a report (the path follows)
+    std::map<std::string, std::string> old, complete;
+};
+
+EarlierAndComplete earlierAndComplete(const TempDir& earlier, const TempDir& fresh)
+{
+    EarlierAndComplete runs;
+    runs.args = " --levels 8 --report '";
+    EXPECT_EQ(runCli("mesh -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") + "'").exitCode, 0);
+    EXPECT_EQ(runCli("mesh --rays 9 -o '" + fresh.path("m.ply") + "'" + runs.args + fresh.path("m.json") + "'").exitCode, 0);
+    runs.old = test::folderBytes(folderOf(earlier));
+    runs.complete = meshBytes(folderOf(fresh));
+    return runs;
+}
+
+// Where to interrupt a run: when a file appears (or at once), then after a delay.
+struct InterruptPoint {
+    std::string trigger; // a file to wait for, or empty
+    double delay;        // seconds after it
+};
+
 } // namespace
 
 TEST(Cli, SignalsLeaveTheEarlierOutputsWhole)
@@ -1011,39 +1036,33 @@ TEST(Cli, SignalsLeaveTheEarlierOutputsWhole)
     // the new run's complete set (as an uninterrupted run writes it), and nothing else.
     TempDir earlier, fresh;
     const std::string folder = folderOf(earlier);
-    const std::string args = " --levels 8 --report '";
-    ASSERT_EQ(runCli("mesh -o '" + earlier.path("m.ply") + "'" + args + earlier.path("m.json") + "'").exitCode, 0);
-    ASSERT_EQ(runCli("mesh --rays 9 -o '" + fresh.path("m.ply") + "'" + args + fresh.path("m.json") + "'").exitCode, 0);
-    const auto old = test::folderBytes(folder), complete = meshBytes(folderOf(fresh));
-    struct Point {
-        std::string trigger; // a file to wait for, or empty
-        double delay;        // seconds after it
-    };
-    const std::vector<Point> points = {{".m_L0.ply.pipetile-lock", 0.0}, {".m_L0.ply.pipetile-tmp", 0.0},
+    const EarlierAndComplete runs = earlierAndComplete(earlier, fresh);
+    ASSERT_FALSE(::testing::Test::HasFailure());
+    const std::vector<InterruptPoint> points = {{".m_L0.ply.pipetile-lock", 0.0}, {".m_L0.ply.pipetile-tmp", 0.0},
                                        {".m_L7.ply.pipetile-tmp", 0.0},   {"", 0.5},
                                        {"", 1.0},                         {"", 1.5}};
     int interrupted = 0;
     for (std::size_t k = 0; k < points.size(); ++k) {
         const int signal = k % 2 ? SIGTERM : SIGINT;
         SCOPED_TRACE("signal " + std::to_string(signal) + " at " + points[k].trigger + " + " + std::to_string(points[k].delay));
-        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + args + earlier.path("m.json") + "'");
+        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") + "'");
         if (!points[k].trigger.empty()) {
             ASSERT_TRUE(test::waitForFile(earlier.path(points[k].trigger)));
         }
         std::this_thread::sleep_for(std::chrono::duration<double>(points[k].delay));
         ::kill(run.pid(), signal);
         const test::CliResult r = run.wait();
-        if (run.signal() == signal && test::folderBytes(folder) == old) {
+        if (run.signal() == signal && test::folderBytes(folder) == runs.old) {
             ++interrupted;
             EXPECT_NE(r.err.find("stopped by"), std::string::npos) << r.err;
             continue;
         }
         EXPECT_FALSE(k < 3) << "before the commit, so interrupted; signal " << run.signal() << ", exit " << r.exitCode
-                            << ", " << test::sameFiles(test::folderBytes(folder), old).message() << ": " << r.err;
-        EXPECT_TRUE(test::sameFiles(meshBytes(folder), complete)) << "neither the earlier set nor the new one";
+                            << ", " << test::sameFiles(test::folderBytes(folder), runs.old).message() << ": " << r.err;
+        EXPECT_TRUE(test::sameFiles(meshBytes(folder), runs.complete)) << "neither the earlier set nor the new one";
         EXPECT_EQ(readJson(earlier.path("m.json"))["levels"][0]["rays"].get<int>(), 9);
         // Put the earlier set back for the next point.
-        for (const auto& [name, bytes] : old) std::ofstream(earlier.path(name), std::ios::binary) << bytes;
+        for (const auto& [name, bytes] : runs.old) std::ofstream(earlier.path(name), std::ios::binary) << bytes;
     }
     EXPECT_GE(interrupted, 3) << "the first three points come before the commit";
     RecordProperty("interrupted_of_6", interrupted);
@@ -1083,21 +1102,15 @@ TEST(Cli, AKilledRunIsUndoneOrFinishedByTheNextRunEvenOneThatFails)
     // temporary, no lock file, no level of one run beside another's.
     TempDir earlier, fresh;
     const std::string folder = folderOf(earlier);
-    const std::string args = " --levels 8 --report '";
-    ASSERT_EQ(runCli("mesh -o '" + earlier.path("m.ply") + "'" + args + earlier.path("m.json") + "'").exitCode, 0);
-    ASSERT_EQ(runCli("mesh --rays 9 -o '" + fresh.path("m.ply") + "'" + args + fresh.path("m.json") + "'").exitCode, 0);
-    const auto old = test::folderBytes(folder), complete = meshBytes(folderOf(fresh));
-    struct Point {
-        std::string trigger; // a file to wait for, or empty
-        double delay;        // seconds after it
-    };
-    const std::vector<Point> points = {{".m_L0.ply.pipetile-lock", 0.0}, {".m_L0.ply.pipetile-tmp", 0.0},
+    const EarlierAndComplete runs = earlierAndComplete(earlier, fresh);
+    ASSERT_FALSE(::testing::Test::HasFailure());
+    const std::vector<InterruptPoint> points = {{".m_L0.ply.pipetile-lock", 0.0}, {".m_L0.ply.pipetile-tmp", 0.0},
                                        {".m_L7.ply.pipetile-tmp", 0.0},   {".m_L7.ply.pipetile-tmp", 0.05},
                                        {"", 0.5},                         {"", 1.5}};
     int killed = 0;
-    for (const Point& point : points) {
+    for (const InterruptPoint& point : points) {
         SCOPED_TRACE("SIGKILL at " + point.trigger + " + " + std::to_string(point.delay));
-        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + args + earlier.path("m.json") + "'");
+        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") + "'");
         if (!point.trigger.empty()) {
             ASSERT_TRUE(test::waitForFile(earlier.path(point.trigger)));
         }
@@ -1106,16 +1119,16 @@ TEST(Cli, AKilledRunIsUndoneOrFinishedByTheNextRunEvenOneThatFails)
         run.wait();
         killed += run.signal() == SIGKILL;
         const test::CliResult next = runCli("mesh '" + test::realData(kCarotid) + "' -o '" + earlier.path("m.ply") +
-                                            "'" + args + earlier.path("m.json") + "' --iso 99");
+                                            "'" + runs.args + earlier.path("m.json") + "' --iso 99");
         EXPECT_EQ(next.exitCode, 1) << next.err;
         const auto after = test::folderBytes(folder);
-        if (after == old) continue;
-        EXPECT_TRUE(test::sameFiles(meshBytes(folder), complete)) << "neither the earlier set nor the killed run's";
+        if (after == runs.old) continue;
+        EXPECT_TRUE(test::sameFiles(meshBytes(folder), runs.complete)) << "neither the earlier set nor the killed run's";
         EXPECT_EQ(readJson(earlier.path("m.json"))["levels"][0]["rays"].get<int>(), 9);
         // Put the earlier set back for the next point.
         std::filesystem::remove_all(folder);
         std::filesystem::create_directory(folder);
-        for (const auto& [name, bytes] : old) std::ofstream(earlier.path(name), std::ios::binary) << bytes;
+        for (const auto& [name, bytes] : runs.old) std::ofstream(earlier.path(name), std::ios::binary) << bytes;
     }
     // The first three points come before the run ends (the report and the commit follow them).
     EXPECT_GE(killed, 3);

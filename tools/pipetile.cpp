@@ -17,6 +17,7 @@
 #include <malloc.h>
 #include <pthread.h>
 #include <sys/mman.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -347,9 +348,15 @@ int runInfo(const std::string& input)
 // and a page fault per 4 KiB page of them cost a fifth of a run's CPU on the phantom. The heap is
 // grown once by kHugeHeap and that span advised (what glibc's glibc.malloc.hugetlb=1 tunable does,
 // which a program cannot set for itself); where malloc is not glibc's heap (sanitizers) the heap
-// does not grow and nothing is advised.
+// does not grow and nothing is advised. Under a limit on the address space or the heap (ulimit -v,
+// -d) nothing changes either: the padding would spend a large part of a tight limit, and the
+// places that then ran out first (glibc loading its unwinder for a thread's exit) abort.
 void adviseHugePageHeap()
 {
+    for (const int resource : {RLIMIT_AS, RLIMIT_DATA}) {
+        rlimit limit{};
+        if (getrlimit(resource, &limit) != 0 || limit.rlim_cur != RLIM_INFINITY) return;
+    }
     constexpr std::size_t kHugeHeap = std::size_t(64) << 20, kHugePage = std::size_t(2) << 20;
     // Requests up to 32 MiB from the heap rather than mmap, and the heap kept grown, not trimmed.
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
