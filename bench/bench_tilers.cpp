@@ -48,8 +48,14 @@ void BM_Toroidal(benchmark::State& state)
     state.counters["bytes"] = static_cast<double>(stats.bytes);
 }
 
-void BM_TileOptimal(benchmark::State& state) { BM_Toroidal<pipetile::tileOptimal>(state); }
-void BM_TileGreedy(benchmark::State& state) { BM_Toroidal<pipetile::tileGreedy>(state); }
+void BM_TileOptimal(benchmark::State& state)
+{
+    BM_Toroidal<pipetile::tileOptimal>(state);
+}
+void BM_TileGreedy(benchmark::State& state)
+{
+    BM_Toroidal<pipetile::tileGreedy>(state);
+}
 
 } // namespace
 

@@ -36,9 +36,9 @@ namespace {
     __builtin_trap();
 }
 
-#define FUZZ_CHECK(condition)                                                                      \
-    do {                                                                                           \
-        if (!(condition)) fail(#condition, __LINE__);                                              \
+#define FUZZ_CHECK(condition)                                                                                          \
+    do {                                                                                                               \
+        if (!(condition)) fail(#condition, __LINE__);                                                                  \
     } while (false)
 
 struct Input {
@@ -159,7 +159,8 @@ void checkContour(const Contour& c, const BoundaryLoop& loop, const glm::dvec2& 
         for (const Crossing* x : xs) balance += x->kind == CrossingKind::InOut ? 1 : -1;
         FUZZ_CHECK(balance == 1);
         FUZZ_CHECK(xs.size() % 2 == 1);
-        std::stable_sort(xs.begin(), xs.end(), [](const Crossing* a, const Crossing* b) { return a->crackT < b->crackT; });
+        std::stable_sort(xs.begin(), xs.end(),
+                         [](const Crossing* a, const Crossing* b) { return a->crackT < b->crackT; });
         // From the centre outward the ray leaves, enters, leaves, ...: InOut, OutIn, ..., InOut.
         // Unless two crossings tie in distance, up to rounding: where the marching-squares polygon
         // touches itself (at the centre of a pixel whose value is exactly 0) and the ray passes
@@ -287,8 +288,10 @@ void checkCaps(std::uint32_t m)
                 const auto from = static_cast<std::uint32_t>(e >> 32), to = static_cast<std::uint32_t>(e);
                 const bool boundary = from < m && to < m && (to == (from + 1) % m || from == (to + 1) % m);
                 const bool reversed = std::binary_search(edges.begin(), edges.end(), (std::uint64_t(to) << 32) | from);
-                if (!boundary) FUZZ_CHECK(reversed);
-                else FUZZ_CHECK(!reversed && (top ? to == (from + 1) % m : from == (to + 1) % m));
+                if (!boundary)
+                    FUZZ_CHECK(reversed);
+                else
+                    FUZZ_CHECK(!reversed && (top ? to == (from + 1) % m : from == (to + 1) % m));
             }
         }
 }

@@ -28,14 +28,15 @@ namespace {
     __builtin_trap();
 }
 
-#define FUZZ_CHECK(condition)                                                                      \
-    do {                                                                                           \
-        if (!(condition)) fail(#condition, __LINE__);                                              \
+#define FUZZ_CHECK(condition)                                                                                          \
+    do {                                                                                                               \
+        if (!(condition)) fail(#condition, __LINE__);                                                                  \
     } while (false)
 
 void checkMesh(const TriangleMesh& mesh)
 {
-    for (const glm::dvec3& p : mesh.vertices) FUZZ_CHECK(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+    for (const glm::dvec3& p : mesh.vertices)
+        FUZZ_CHECK(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
     for (const Triangle& t : mesh.triangles)
         for (std::uint32_t v : t) FUZZ_CHECK(v < mesh.vertices.size());
     const Topology topology = checkTopology(mesh);

@@ -66,12 +66,30 @@ void* allocateNoThrow(std::size_t size, std::size_t alignment = 0) noexcept
 // Every form, so that every allocation of the process (libstdc++ and OpenVDB included) goes through
 // malloc and free, and AddressSanitizer sees matching pairs. (This gives up its new/delete[]
 // mismatch check in this binary; fuzz_contour and the sanitizer test suite keep it.)
-void* operator new(std::size_t size) { return allocate(size); }
-void* operator new[](std::size_t size) { return allocate(size); }
-void* operator new(std::size_t size, const std::nothrow_t&) noexcept { return allocateNoThrow(size); }
-void* operator new[](std::size_t size, const std::nothrow_t&) noexcept { return allocateNoThrow(size); }
-void* operator new(std::size_t size, std::align_val_t a) { return allocate(size, std::size_t(a)); }
-void* operator new[](std::size_t size, std::align_val_t a) { return allocate(size, std::size_t(a)); }
+void* operator new(std::size_t size)
+{
+    return allocate(size);
+}
+void* operator new[](std::size_t size)
+{
+    return allocate(size);
+}
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept
+{
+    return allocateNoThrow(size);
+}
+void* operator new[](std::size_t size, const std::nothrow_t&) noexcept
+{
+    return allocateNoThrow(size);
+}
+void* operator new(std::size_t size, std::align_val_t a)
+{
+    return allocate(size, std::size_t(a));
+}
+void* operator new[](std::size_t size, std::align_val_t a)
+{
+    return allocate(size, std::size_t(a));
+}
 void* operator new(std::size_t size, std::align_val_t a, const std::nothrow_t&) noexcept
 {
     return allocateNoThrow(size, std::size_t(a));
@@ -80,18 +98,54 @@ void* operator new[](std::size_t size, std::align_val_t a, const std::nothrow_t&
 {
     return allocateNoThrow(size, std::size_t(a));
 }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete(void* p) noexcept
+{
+    std::free(p);
+}
+void operator delete[](void* p) noexcept
+{
+    std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept
+{
+    std::free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept
+{
+    std::free(p);
+}
+void operator delete(void* p, const std::nothrow_t&) noexcept
+{
+    std::free(p);
+}
+void operator delete[](void* p, const std::nothrow_t&) noexcept
+{
+    std::free(p);
+}
+void operator delete(void* p, std::align_val_t) noexcept
+{
+    std::free(p);
+}
+void operator delete[](void* p, std::align_val_t) noexcept
+{
+    std::free(p);
+}
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept
+{
+    std::free(p);
+}
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept
+{
+    std::free(p);
+}
+void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept
+{
+    std::free(p);
+}
+void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept
+{
+    std::free(p);
+}
 
 namespace {
 
@@ -101,7 +155,10 @@ std::string& tempPath()
     return path;
 }
 
-void removeTemp() { std::remove(tempPath().c_str()); }
+void removeTemp()
+{
+    std::remove(tempPath().c_str());
+}
 
 // Valid grids whose meshing cost grows with their size (active tiles are voxelized; every slice of
 // the active bounding box is sampled) would make most executions slow and some exceed the
@@ -161,8 +218,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***)
 {
     openvdb::initialize();
     // One file per process (libFuzzer's -jobs and -fork run several), rewritten for each input.
-    tempPath() = (std::filesystem::temp_directory_path() /
-                  ("pipetile_fuzz_vdb_" + std::to_string(::getpid()) + ".vdb")).string();
+    tempPath() = (std::filesystem::temp_directory_path() / ("pipetile_fuzz_vdb_" + std::to_string(::getpid()) + ".vdb"))
+                     .string();
     std::atexit(removeTemp);
     return 0;
 }

@@ -29,8 +29,10 @@ FloatGrid::Ptr levelSet(const Coord& lo, const Coord& hi, float band, const Dist
         for (int y = lo.y(); y <= hi.y(); ++y)
             for (int z = lo.z(); z <= hi.z(); ++z) {
                 const float d = static_cast<float>(distance(x, y, z));
-                if (std::abs(d) < band) acc.setValueOn(Coord(x, y, z), d);
-                else acc.setValueOff(Coord(x, y, z), d < 0 ? -band : band);
+                if (std::abs(d) < band)
+                    acc.setValueOn(Coord(x, y, z), d);
+                else
+                    acc.setValueOff(Coord(x, y, z), d < 0 ? -band : band);
             }
     return grid;
 }
@@ -58,7 +60,9 @@ int main(int argc, char** argv)
     std::filesystem::create_directories(dir);
 
     // A ball of radius 2.5 in one leaf node.
-    auto ball = [](int x, int y, int z) { return std::sqrt((x - 3.5) * (x - 3.5) + (y - 3.5) * (y - 3.5) + (z - 3.5) * (z - 3.5)) - 2.5; };
+    auto ball = [](int x, int y, int z) {
+        return std::sqrt((x - 3.5) * (x - 3.5) + (y - 3.5) * (y - 3.5) + (z - 3.5) * (z - 3.5)) - 2.5;
+    };
     FloatGrid::Ptr sphere = levelSet(Coord(0), Coord(7), 2.0f, ball);
     sphere->setName("surface");
     // Active-mask compression only: no internal-node values, leaf values as plain floats.

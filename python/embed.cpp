@@ -39,7 +39,9 @@ MeshedFiles meshFiles(const std::string& input, const std::string& output, const
     job.owner = "pipetile Python module";
     job.options = options;
     job.volume = volume;
-    job.notify = [&](const char* kind, const std::string& text) { result.notes.push_back(std::string(kind) + ": " + text); };
+    job.notify = [&](const char* kind, const std::string& text) {
+        result.notes.push_back(std::string(kind) + ": " + text);
+    };
     result.report = tools::meshFrame(job).dump();
     return result;
 }

@@ -78,10 +78,10 @@ Volume readFile(const std::string& path, const std::string& grid, std::optional<
 using DenseArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
 Volume readDense(const DenseArray& values, const py::array_t<double, py::array::c_style | py::array::forcecast>& matrix,
-                 bool levelSet, const std::string& grid, std::optional<double> iso,
-                 const std::string& source)
+                 bool levelSet, const std::string& grid, std::optional<double> iso, const std::string& source)
 {
-    if (values.ndim() != 3) throw UsageError("a dense volume is a 3-D array; got " + std::to_string(values.ndim()) + " dimensions");
+    if (values.ndim() != 3)
+        throw UsageError("a dense volume is a 3-D array; got " + std::to_string(values.ndim()) + " dimensions");
     if (matrix.ndim() != 2 || matrix.shape(0) != 4 || matrix.shape(1) != 4)
         throw UsageError("index_to_world must be a 4x4 matrix");
     for (int a = 0; a < 3; ++a)
@@ -133,7 +133,8 @@ py::tuple mesh(const Volume& volume, const std::string& axis, double spacing, in
         throw Error("the finest level has " + std::to_string(meshed.levels.vertices.size()) +
                     " vertices, more than int32 faces can index; lower levels or rays");
     py::list faces;
-    for (std::vector<Triangle>& triangles : meshed.levels.triangles) faces.append(handOver<std::int32_t>(std::move(triangles)));
+    for (std::vector<Triangle>& triangles : meshed.levels.triangles)
+        faces.append(handOver<std::int32_t>(std::move(triangles)));
     return py::make_tuple(handOver<double>(std::move(meshed.levels.vertices)), meshed.levels.vertexCounts, faces,
                           meshed.report);
 }
@@ -175,7 +176,8 @@ std::string sequenceReport(const std::string& input, const std::string& output, 
     return tools::sequenceReport(input, output, frames, seconds).dump();
 }
 
-std::string validate(const Volume& volume, const py::array_t<double, py::array::c_style | py::array::forcecast>& vertices,
+std::string validate(const Volume& volume,
+                     const py::array_t<double, py::array::c_style | py::array::forcecast>& vertices,
                      const py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>& faces, int threads)
 {
     if (vertices.ndim() != 2 || vertices.shape(1) != 3) throw UsageError("vertices must be an (N, 3) array");
@@ -190,8 +192,8 @@ std::string validate(const Volume& volume, const py::array_t<double, py::array::
         for (int k = 0; k < 3; ++k) {
             const std::int64_t id = faces.at(t, k);
             if (id < 0 || id >= count)
-                throw UsageError("face " + std::to_string(t) + " names vertex " + std::to_string(id) + ", but there are " +
-                                 std::to_string(count) + " vertices");
+                throw UsageError("face " + std::to_string(t) + " names vertex " + std::to_string(id) +
+                                 ", but there are " + std::to_string(count) + " vertices");
             mesh.triangles[t][k] = static_cast<std::uint32_t>(id);
         }
     const py::gil_scoped_release release;
@@ -242,13 +244,16 @@ PYBIND11_MODULE(_pipetile, m)
     m.def("mesh", &mesh, py::arg("volume"), py::arg("axis"), py::arg("spacing"), py::arg("rays"), py::arg("levels"),
           py::arg("every_slice"), py::arg("threads"), py::arg("tiler"));
     m.def("mesh_to_files", &meshToFiles, py::arg("input"), py::arg("output"), py::arg("report"), py::arg("grid"),
-          py::arg("iso"), py::arg("axis"), py::arg("spacing"), py::arg("rays"), py::arg("levels"), py::arg("every_slice"),
-          py::arg("threads"), py::arg("tiler"));
-    m.def("frame_path", [](const std::string& pattern, int frame) { return framePattern(pattern, "the pattern").path(frame); },
-          py::arg("pattern"), py::arg("frame"));
+          py::arg("iso"), py::arg("axis"), py::arg("spacing"), py::arg("rays"), py::arg("levels"),
+          py::arg("every_slice"), py::arg("threads"), py::arg("tiler"));
+    m.def(
+        "frame_path",
+        [](const std::string& pattern, int frame) { return framePattern(pattern, "the pattern").path(frame); },
+        py::arg("pattern"), py::arg("frame"));
     m.def("sequence_frames", &sequenceFrames, py::arg("pattern"), py::arg("range"));
     m.def("outputs_exist", &tools::outputsExist, py::arg("output"), py::arg("report"), py::arg("levels"));
     m.def("frame_error", &tools::frameError, py::arg("frame"), py::arg("what"));
-    m.def("sequence_report", &sequenceReport, py::arg("input"), py::arg("output"), py::arg("outcomes"), py::arg("seconds"));
+    m.def("sequence_report", &sequenceReport, py::arg("input"), py::arg("output"), py::arg("outcomes"),
+          py::arg("seconds"));
     m.def("validate", &validate, py::arg("volume"), py::arg("vertices"), py::arg("faces"), py::arg("threads"));
 }

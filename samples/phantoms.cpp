@@ -59,8 +59,7 @@ double arcDistance2d(glm::dvec2 q, const glm::dvec2& sinCos, double arcRadius, d
     q.x = std::abs(q.x);
     // Beyond the arc's angular span the nearest arc point is the end on the same side.
     const bool beyondEnd = sinCos.y * q.x > sinCos.x * q.y;
-    const double toArc = beyondEnd ? glm::length(q - sinCos * arcRadius)
-                                   : std::abs(glm::length(q) - arcRadius);
+    const double toArc = beyondEnd ? glm::length(q - sinCos * arcRadius) : std::abs(glm::length(q) - arcRadius);
     return toArc - thickness;
 }
 
@@ -95,8 +94,8 @@ double ringDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRa
 /// the torus with axis x elongated along z (Quilez's opElongate): for |q.z| <= halfLength the
 /// nearest centre-line point is on a straight side at the same z, beyond it on the half circle;
 /// exact for ringRadius > radius.
-double racetrackDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius,
-                         double radius, double halfLength)
+double racetrackDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius, double radius,
+                         double halfLength)
 {
     const glm::dvec3 q = p - centre;
     const double z = q.z - glm::clamp(q.z, -halfLength, halfLength);
@@ -107,8 +106,7 @@ double racetrackDistance(const glm::dvec3& p, const glm::dvec3& centre, double r
 /// in the plane y = centre.y: the upper half (z >= centre.z) if `upper`, else the lower half. Its
 /// ends are centre +- (ringRadius, 0, 0). For points on the half's side of the diameter the
 /// nearest point of the full circle lies on the half; on the other side, an end is nearest.
-double halfRingDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius,
-                        double radius, bool upper)
+double halfRingDistance(const glm::dvec3& p, const glm::dvec3& centre, double ringRadius, double radius, bool upper)
 {
     const glm::dvec3 q = p - centre;
     if ((upper ? q.z : -q.z) >= 0.0) {
@@ -210,10 +208,7 @@ private:
     double sampleS(int i) const { return mLine.sMin + i * mStep; }
 
     /// F at the table's sample i.
-    double sampledF(const glm::dvec3& p, int i) const
-    {
-        return glm::length(p - mTable[i].c) - mTable[i].r;
-    }
+    double sampledF(const glm::dvec3& p, int i) const { return glm::length(p - mTable[i].c) - mTable[i].r; }
 
     /// F' at the table's sample i; 0 on the centre line, where F has its kink.
     double sampledSlope(const glm::dvec3& p, int i) const
@@ -238,8 +233,7 @@ private:
         }
         const double along = glm::dot(v, q.dc);
         df = along / length - q.dr;
-        ddf = (glm::dot(q.dc, q.dc) + glm::dot(v, q.ddc)) / length
-              - along * along / (length * length * length) - q.ddr;
+        ddf = (glm::dot(q.dc, q.dc) + glm::dot(v, q.ddc)) / length - along * along / (length * length * length) - q.ddr;
     }
 
     /// The minimum of F in the bracket of sample i: Newton's method on F' = 0, kept inside a
@@ -417,9 +411,7 @@ DistanceFunction straightDistance()
 {
     // Capsule along z through (32, 32), z in [16, 112], radius 10: exact.
     // A sphere: euler 2, 1 component.
-    return [](const glm::dvec3& p) {
-        return capsuleDistance(p, {32.0, 32.0, 16.0}, {32.0, 32.0, 112.0}, 10.0);
-    };
+    return [](const glm::dvec3& p) { return capsuleDistance(p, {32.0, 32.0, 16.0}, {32.0, 32.0, 112.0}, 10.0); };
 }
 
 DistanceFunction helixDistance()
@@ -541,7 +533,10 @@ DistanceFunction partingDistance()
     // between them before they part, a ring breaking open into two walls around a hole too small
     // for each wall to be nearest part of it.
     // A tree of capsules without a loop: a sphere. Euler 2, 1 component.
-    struct Segment { glm::dvec3 a, b; double radius; };
+    struct Segment {
+        glm::dvec3 a, b;
+        double radius;
+    };
     static const Segment segments[] = {
         {{48.0, 48.0, 10.0}, {67.962, 33.125, 47.977}, 5.396},
         {{48.0, 48.0, 10.0}, {65.422, 54.790, 31.637}, 6.677},
@@ -796,76 +791,141 @@ const std::vector<SampleEntry>& sampleTable()
         {{"phantom",
           "256x256x512 tube, centre line wandering in x and y, radius breathing 21-31 "
           "(the paper's phantom; default input)",
-          {256, 256, 512}, 1.0, 2, 1},
+          {256, 256, 512},
+          1.0,
+          2,
+          1},
          &phantomDistance},
-        {{"straight", "64x64x128 capsule of radius 10 along z: circular contours, round end caps",
-          {64, 64, 128}, 1.0, 2, 1},
+        {{"straight",
+          "64x64x128 capsule of radius 10 along z: circular contours, round end caps",
+          {64, 64, 128},
+          1.0,
+          2,
+          1},
          &straightDistance},
-        {{"helix", "96x96x160 tube of radius 6 along two helix turns: contours moving between slices",
-          {96, 96, 160}, 1.0, 2, 1},
+        {{"helix",
+          "96x96x160 tube of radius 6 along two helix turns: contours moving between slices",
+          {96, 96, 160},
+          1.0,
+          2,
+          1},
          &helixDistance},
-        {{"bean", "96x96x96 extruded C shape: centroid inside, but rays from it cross three times",
-          {96, 96, 96}, 1.0, 2, 1},
+        {{"bean",
+          "96x96x96 extruded C shape: centroid inside, but rays from it cross three times",
+          {96, 96, 96},
+          1.0,
+          2,
+          1},
          &beanDistance},
-        {{"hollow", "96x96x128 annular tube (radii 14 and 26): a hole in every cross-section",
-          {96, 96, 128}, 1.0, 0, 1},
+        {{"hollow",
+          "96x96x128 annular tube (radii 14 and 26): a hole in every cross-section",
+          {96, 96, 128},
+          1.0,
+          0,
+          1},
          &hollowDistance},
-        {{"ybranch", "128x128x160 trunk forking into two branches: one contour becomes two",
-          {128, 128, 160}, 1.0, 2, 1},
+        {{"ybranch",
+          "128x128x160 trunk forking into two branches: one contour becomes two",
+          {128, 128, 160},
+          1.0,
+          2,
+          1},
          &ybranchDistance},
-        {{"two-tubes", "96x64x128 two parallel capsules of radius 10: two contours per slice",
-          {96, 64, 128}, 1.0, 4, 2},
+        {{"two-tubes",
+          "96x64x128 two parallel capsules of radius 10: two contours per slice",
+          {96, 64, 128},
+          1.0,
+          4,
+          2},
          &twoTubesDistance},
-        {{"tbranch", "80x64x128 tube along z with a side branch along x lying in the slice z = 64",
-          {80, 64, 128}, 1.0, 2, 1},
+        {{"tbranch",
+          "80x64x128 tube along z with a side branch along x lying in the slice z = 64",
+          {80, 64, 128},
+          1.0,
+          2,
+          1},
          &tbranchDistance},
-        {{"trifurcation", "96x96x128 trunk forking into three branches, not in one plane",
-          {96, 96, 128}, 1.0, 2, 1},
+        {{"trifurcation", "96x96x128 trunk forking into three branches, not in one plane", {96, 96, 128}, 1.0, 2, 1},
          &trifurcationDistance},
-        {{"ubend", "96x64x128 two arms along z joined on top by a half ring: a U across the slices",
-          {96, 64, 128}, 1.0, 2, 1},
+        {{"ubend",
+          "96x64x128 two arms along z joined on top by a half ring: a U across the slices",
+          {96, 64, 128},
+          1.0,
+          2,
+          1},
          &ubendDistance},
-        {{"xcross", "64x48x128 two capsules crossing at 37 degrees: two sections fuse, then part",
-          {64, 48, 128}, 1.0, 2, 1},
+        {{"xcross",
+          "64x48x128 two capsules crossing at 37 degrees: two sections fuse, then part",
+          {64, 48, 128},
+          1.0,
+          2,
+          1},
          &xcrossDistance},
-        {{"torus-flat", "56x56x64 ring around z lying flat (section stretched along z): genus 1",
-          {56, 56, 64}, 1.0, 0, 1},
+        {{"torus-flat",
+          "56x56x64 ring around z lying flat (section stretched along z): genus 1",
+          {56, 56, 64},
+          1.0,
+          0,
+          1},
          &torusFlatDistance},
-        {{"torus-standing", "48x64x112 ring with axis x, a racetrack standing across the slices: genus 1",
-          {48, 64, 112}, 1.0, 0, 1},
+        {{"torus-standing",
+          "48x64x112 ring with axis x, a racetrack standing across the slices: genus 1",
+          {48, 64, 112},
+          1.0,
+          0,
+          1},
          &torusStandingDistance},
-        {{"two-tori", "80x56x80 two flat rings fused at one side, a figure eight: genus 2",
-          {80, 56, 80}, 1.0, -2, 1},
+        {{"two-tori", "80x56x80 two flat rings fused at one side, a figure eight: genus 2", {80, 56, 80}, 1.0, -2, 1},
          &twoToriDistance},
-        {{"hollow-y", "96x64x128 Y-shaped pipe open at its three ends: genus 2",
-          {96, 64, 128}, 1.0, -2, 1},
+        {{"hollow-y", "96x64x128 Y-shaped pipe open at its three ends: genus 2", {96, 64, 128}, 1.0, -2, 1},
          &hollowYDistance},
-        {{"lumen-rod", "64x64x128 solid rod holding a closed channel: outer shell and a void",
-          {64, 64, 128}, 1.0, 4, 2},
+        {{"lumen-rod",
+          "64x64x128 solid rod holding a closed channel: outer shell and a void",
+          {64, 64, 128},
+          1.0,
+          4,
+          2},
          &lumenRodDistance},
-        {{"tank", "64x64x112 closed thick-walled cylinder around a void: two shells",
-          {64, 64, 112}, 1.0, 4, 2},
+        {{"tank", "64x64x112 closed thick-walled cylinder around a void: two shells", {64, 64, 112}, 1.0, 4, 2},
          &tankDistance},
-        {{"tree", "96x96x128 vessel tree, trunk -> 2 -> 4 leaves, forks in different planes",
-          {96, 96, 128}, 1.0, 2, 1},
+        {{"tree", "96x96x128 vessel tree, trunk -> 2 -> 4 leaves, forks in different planes", {96, 96, 128}, 1.0, 2, 1},
          &treeDistance},
-        {{"serpentine", "96x32x128 tube going up and down across the slices, three U-turns",
-          {96, 32, 128}, 1.0, 2, 1},
+        {{"serpentine", "96x32x128 tube going up and down across the slices, three U-turns", {96, 32, 128}, 1.0, 2, 1},
          &serpentineDistance},
-        {{"oblique", "40x40x80 thin tube (radius 1.5) at 76 degrees from z, wound in a tight helix",
-          {40, 40, 80}, 1.0, 2, 1},
+        {{"oblique",
+          "40x40x80 thin tube (radius 1.5) at 76 degrees from z, wound in a tight helix",
+          {40, 40, 80},
+          1.0,
+          2,
+          1},
          &obliqueDistance},
-        {{"parting", "96x96x128 tree of six capsules; two branches part through one-pixel holes",
-          {96, 96, 128}, 1.0, 2, 1},
+        {{"parting",
+          "96x96x128 tree of six capsules; two branches part through one-pixel holes",
+          {96, 96, 128},
+          1.0,
+          2,
+          1},
          &partingDistance},
-        {{"touching-blocks", "32x32x32 two boxes touching along one voxel edge in a voxel plane: two surfaces",
-          {32, 32, 32}, 1.0, 4, 2},
+        {{"touching-blocks",
+          "32x32x32 two boxes touching along one voxel edge in a voxel plane: two surfaces",
+          {32, 32, 32},
+          1.0,
+          4,
+          2},
          &touchingBlocksDistance},
-        {{"steps", "32x24x32 four box steps, each touching the next along voxel edges across a voxel plane",
-          {32, 24, 32}, 1.0, 2, 1},
+        {{"steps",
+          "32x24x32 four box steps, each touching the next along voxel edges across a voxel plane",
+          {32, 24, 32},
+          1.0,
+          2,
+          1},
          &stepsDistance},
-        {{"pillars", "24x24x32 two box pillars side by side, touching along voxel edges across a voxel plane",
-          {24, 24, 32}, 1.0, 2, 1},
+        {{"pillars",
+          "24x24x32 two box pillars side by side, touching along voxel edges across a voxel plane",
+          {24, 24, 32},
+          1.0,
+          2,
+          1},
          &pillarsDistance},
     };
     return table;
@@ -903,12 +963,11 @@ DistanceFunction sampleDistance(const std::string& name)
 Volume makeSample(const std::string& name)
 {
     const SampleEntry& entry = findSample(name);
-    return levelSetFromDistance(entry.makeDistance(), entry.info.dims, entry.info.voxelSize,
-                                "sample:" + name);
+    return levelSetFromDistance(entry.makeDistance(), entry.info.dims, entry.info.voxelSize, "sample:" + name);
 }
 
-Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& dims,
-                            double voxelSize, const std::string& source)
+Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& dims, double voxelSize,
+                            const std::string& source)
 {
     using LeafT = openvdb::FloatTree::LeafNodeType;
     constexpr int kBlock = static_cast<int>(LeafT::DIM);
@@ -916,21 +975,18 @@ Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& 
     if (!distance) throw Error(source + ": no distance function to sample");
     if (dims.x <= 0 || dims.y <= 0 || dims.z <= 0) {
         std::ostringstream message;
-        message << source << ": grid dimensions must be positive, got " << dims.x << 'x' << dims.y
-                << 'x' << dims.z;
+        message << source << ": grid dimensions must be positive, got " << dims.x << 'x' << dims.y << 'x' << dims.z;
         throw Error(message.str());
     }
     if (!(voxelSize > 0.0) || !std::isfinite(voxelSize)) {
-        throw Error(source + ": voxel size must be positive and finite, got "
-                    + std::to_string(voxelSize));
+        throw Error(source + ": voxel size must be positive and finite, got " + std::to_string(voxelSize));
     }
 
     const double background = kHalfWidthVoxels * voxelSize;
     const float backgroundValue = static_cast<float>(background);
     // phi is 1-Lipschitz, so a block whose centre is farther than this from the surface holds no
     // band voxel, and all its voxels share the centre's sign.
-    const double blockReach =
-        (kHalfWidthVoxels + kBlockHalfDiagonalVoxels + kBlockSafetyVoxels) * voxelSize;
+    const double blockReach = (kHalfWidthVoxels + kBlockHalfDiagonalVoxels + kBlockSafetyVoxels) * voxelSize;
     const glm::ivec3 blocks = (dims + (kBlock - 1)) / kBlock;
     const std::size_t blocksY = static_cast<std::size_t>(blocks.y);
     const std::size_t blocksZ = static_cast<std::size_t>(blocks.z);
@@ -940,8 +996,8 @@ Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& 
         const double d = distance(world);
         if (std::isnan(d)) {
             std::ostringstream message;
-            message << source << ": the distance function is NaN at world point (" << world.x
-                    << ", " << world.y << ", " << world.z << ")";
+            message << source << ": the distance function is NaN at world point (" << world.x << ", " << world.y << ", "
+                    << world.z << ")";
             throw Error(message.str());
         }
         return d;

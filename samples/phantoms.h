@@ -45,7 +45,7 @@ Volume makeSample(const std::string& name);
 
 /// Generates a narrow-band level set of any signed distance function on [0, dims) voxels.
 /// Only the 8^3 blocks whose centre lies within reach of the band are evaluated.
-Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& dims,
-                            double voxelSize, const std::string& source);
+Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& dims, double voxelSize,
+                            const std::string& source);
 
 } // namespace pipetile::samples

@@ -7,7 +7,8 @@
 
 namespace pipetile {
 
-bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex, double sign)
+bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex,
+              double sign)
 {
     constexpr double kStep = 0.25;
     const double w0 = plane.w();
@@ -48,7 +49,10 @@ std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
         for (std::size_t k = 0; k < n && clip == n; ++k) {
             const std::uint32_t a = ring[(k + n - 1) % n], b = ring[k], c = ring[(k + 1) % n];
             const double turn = cross(a, b, c);
-            if (turn > best) { best = turn; convexmost = k; }
+            if (turn > best) {
+                best = turn;
+                convexmost = k;
+            }
             if (turn <= 0.0) continue;
             bool ear = true;
             for (std::size_t j = 0; j < n && ear; ++j) {

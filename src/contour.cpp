@@ -28,7 +28,10 @@ const glm::ivec2 kStep[4] = {{1, 0}, {0, 1}, {-1, 0}, {0, -1}};
 // the pixel on its right is C + kLeft[(d + 3) % 4].
 const glm::ivec2 kLeft[4] = {{0, 0}, {-1, 0}, {-1, -1}, {0, -1}};
 
-glm::dvec2 cornerPoint(const glm::ivec2& c) { return {c.x - 0.5, c.y - 0.5}; }
+glm::dvec2 cornerPoint(const glm::ivec2& c)
+{
+    return {c.x - 0.5, c.y - 0.5};
+}
 
 // Angle of (x, y) around the origin in turns, in [0, 1), to within 2e-12 turn: rays only need
 // which side of each ray a point lies on, and libm's correctly rounded atan2 was 7% of a run.
@@ -44,7 +47,8 @@ double turnsOf(double x, double y)
     const bool reduced = z > kTan15;
     const double w = reduced ? (kSqrt3 * z - 1.0) / (kSqrt3 + z) : z, w2 = w * w;
     double series = -1.0 / 15.0;
-    for (const double c : {1.0 / 13.0, -1.0 / 11.0, 1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0, 1.0}) series = series * w2 + c;
+    for (const double c : {1.0 / 13.0, -1.0 / 11.0, 1.0 / 9.0, -1.0 / 7.0, 1.0 / 5.0, -1.0 / 3.0, 1.0})
+        series = series * w2 + c;
     double angle = w * series + (reduced ? kPi / 6.0 : 0.0); // in [0, pi/4]
     if (steep) angle = 0.5 * kPi - angle;
     if (x < 0.0) angle = kPi - angle;
@@ -96,7 +100,10 @@ public:
     explicit SeedMarks(const std::vector<glm::ivec2>& seeds) : mSeeds(seeds)
     {
         mLo = mHi = seeds.front();
-        for (const glm::ivec2& p : seeds) { mLo = glm::min(mLo, p); mHi = glm::max(mHi, p); }
+        for (const glm::ivec2& p : seeds) {
+            mLo = glm::min(mLo, p);
+            mHi = glm::max(mHi, p);
+        }
         const double pixels = (static_cast<double>(mHi.x) - mLo.x + 1.0) * (static_cast<double>(mHi.y) - mLo.y + 1.0);
         mBitmap = pixels <= std::max(double(1 << 22), 64.0 * static_cast<double>(seeds.size()));
         mWidth = mBitmap ? mHi.x - mLo.x + 1 : 0;
@@ -146,14 +153,16 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
     SeedMarks visited(eastCracks);
     auto seen = [&](glm::ivec2 p) { return visited.seen(p); };
     auto mark = [&](glm::ivec2 p) { visited.mark(p); };
-    const std::size_t maxCorners = 4 * static_cast<std::size_t>(boxMax.x - boxMin.x + 2) * (boxMax.y - boxMin.y + 2) + 4;
+    const std::size_t maxCorners =
+        4 * static_cast<std::size_t>(boxMax.x - boxMin.x + 2) * (boxMax.y - boxMin.y + 2) + 4;
 
     // Corner c's pixel c + kLeft[k], as an offset from pixel c in the direct array.
     int offset[4];
     for (int k = 0; k < 4; ++k) offset[k] = kLeft[k].y * direct.width + kLeft[k].x;
     auto pixelsAt = [&](glm::ivec2 c) -> const double* {
         if (c.x < direct.lo.x || c.y < direct.lo.y || c.x > direct.hi.x || c.y > direct.hi.y) return nullptr;
-        return direct.values + static_cast<std::ptrdiff_t>(c.y - direct.origin.y) * direct.width + (c.x - direct.origin.x);
+        return direct.values + static_cast<std::ptrdiff_t>(c.y - direct.origin.y) * direct.width +
+               (c.x - direct.origin.x);
     };
     std::size_t expected = 64; // cracks: the last loop's count, so vectors rarely grow twice
     for (const glm::ivec2& seed : eastCracks) {
@@ -182,8 +191,10 @@ std::vector<BoundaryLoop> traceLoops(const InsideFn& inside, const ValueFn& valu
             const bool aheadLeft = ahead ? ahead[offset[d]] < 0.0 : inside(c.x + kLeft[d].x, c.y + kLeft[d].y);
             // Inside continues to the right (8-connected, unless a saddle there is left open);
             // where it ends ahead, turn left around it.
-            if (aheadRight && (aheadLeft || saddleJoins(c))) d = (d + 3) & 3;
-            else if (!aheadLeft) d = (d + 1) & 3;
+            if (aheadRight && (aheadLeft || saddleJoins(c)))
+                d = (d + 3) & 3;
+            else if (!aheadLeft)
+                d = (d + 1) & 3;
             PIPETILE_ASSERT(loop.corners.size() <= maxCorners, "boundary walk did not close");
         } while (!(c == start && d == 1));
         finishLoop(loop);
@@ -234,7 +245,10 @@ PixelRuns pixelRuns(const BoundaryLoop& loop)
 {
     PixelRuns runs;
     int lo = loop.corners[0].y, hi = lo;
-    for (const glm::ivec2& c : loop.corners) { lo = std::min(lo, c.y); hi = std::max(hi, c.y); }
+    for (const glm::ivec2& c : loop.corners) {
+        lo = std::min(lo, c.y);
+        hi = std::max(hi, c.y);
+    }
     runs.firstRow = lo;
     runs.rows.resize(static_cast<std::size_t>(hi - lo));
     // Corners (i, v) -> (i, v + 1) or back form a vertical crack that row v crosses.
@@ -263,7 +277,10 @@ long long overlapPixels(const BoundaryLoop& a, const BoundaryLoop& b, const glm:
         for (std::size_t i = 0, j = 0; i + 1 < x.size() && j + 1 < z.size();) {
             const int lo = std::max(x[i], z[j] + shift.x), hi = std::min(x[i + 1], z[j + 1] + shift.x);
             if (hi > lo) common += hi - lo;
-            if (x[i + 1] < z[j + 1] + shift.x) i += 2; else j += 2;
+            if (x[i + 1] < z[j + 1] + shift.x)
+                i += 2;
+            else
+                j += 2;
         }
     }
     return common;
@@ -294,7 +311,10 @@ namespace {
 glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near, int depth)
 {
     glm::ivec2 lo = loop.corners[0], hi = loop.corners[0];
-    for (const glm::ivec2& c : loop.corners) { lo = glm::min(lo, c); hi = glm::max(hi, c); }
+    for (const glm::ivec2& c : loop.corners) {
+        lo = glm::min(lo, c);
+        hi = glm::max(hi, c);
+    }
     // Pixels (u, v) with lo <= (u, v) < hi can be enclosed; pad by one outside pixel each side.
     const glm::ivec2 origin = lo - 1;
     const int w = hi.x - lo.x + 2, h = hi.y - lo.y + 2;
@@ -314,18 +334,29 @@ glm::dvec2 deepestPixel(const BoundaryLoop& loop, const glm::dvec2* near, int de
     };
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
-            if (dist[y * w + x]) { relax(x, y, -1, 0, 3); relax(x, y, 0, -1, 3); relax(x, y, -1, -1, 4); relax(x, y, 1, -1, 4); }
+            if (dist[y * w + x]) {
+                relax(x, y, -1, 0, 3);
+                relax(x, y, 0, -1, 3);
+                relax(x, y, -1, -1, 4);
+                relax(x, y, 1, -1, 4);
+            }
     int best = -1;
     glm::dvec2 point = loop.centroid;
     for (int y = h - 1; y >= 0; --y)
         for (int x = w - 1; x >= 0; --x) {
             if (!dist[y * w + x]) continue;
-            relax(x, y, 1, 0, 3); relax(x, y, 0, 1, 3); relax(x, y, 1, 1, 4); relax(x, y, -1, 1, 4);
+            relax(x, y, 1, 0, 3);
+            relax(x, y, 0, 1, 3);
+            relax(x, y, 1, 1, 4);
+            relax(x, y, -1, 1, 4);
         }
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             const glm::dvec2 p(x + origin.x, y + origin.y);
-            if (dist[y * w + x] > best && insidePolygon(loop.points, p)) { best = dist[y * w + x]; point = p; }
+            if (dist[y * w + x] > best && insidePolygon(loop.points, p)) {
+                best = dist[y * w + x];
+                point = p;
+            }
         }
     if (!near || best < 0) return point;
     // Along a section of even width the deepest pixels form a ridge, all about as deep: take the
@@ -357,7 +388,10 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
     if (crackT - kTight >= lower && crackT + kTight <= upper) {
         const double a = crackT - kTight, b = crackT + kTight, fa = g(a), fb = g(b);
         if (rising ? (fa < 0.0 && fb >= 0.0) : (fa >= 0.0 && fb < 0.0)) {
-            bestA = a; bestB = b; ga = fa; gb = fb;
+            bestA = a;
+            bestB = b;
+            ga = fa;
+            gb = fb;
             bestDistance = 0.0;
         }
     }
@@ -371,7 +405,10 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
             const double distance = std::abs(0.5 * (prevT + nextT) - crackT);
             if (crosses && distance < bestDistance) {
                 bestDistance = distance;
-                bestA = prevT; bestB = nextT; ga = prevG; gb = nextG;
+                bestA = prevT;
+                bestB = nextT;
+                ga = prevG;
+                gb = nextG;
             }
             prevT = nextT;
             prevG = nextG;
@@ -393,11 +430,13 @@ bool refineCrossing(const SampleFn& g, bool rising, double crackT, double lower,
         const double gc = g(c);
         if (gc == 0.0) break;
         if ((gc < 0.0) == (ga < 0.0)) {
-            bestA = c; ga = gc;
+            bestA = c;
+            ga = gc;
             if (side == -1) gb *= 0.5;
             side = -1;
         } else {
-            bestB = c; gb = gc;
+            bestB = c;
+            gb = gc;
             if (side == 1) ga *= 0.5;
             side = 1;
         }
@@ -453,7 +492,10 @@ bool cellRoot(const Field& field, const glm::dvec2& center, const glm::dvec2& d,
         if (!(su >= -kInCell && su <= 1.0 + kInCell && rv >= -kInCell && rv <= 1.0 + kInCell)) continue;
         const double candidate = crackT + tau;
         if (!(candidate >= lower && candidate <= upper)) continue;
-        if (!found || std::abs(tau) < std::abs(best)) { best = tau; found = true; }
+        if (!found || std::abs(tau) < std::abs(best)) {
+            best = tau;
+            found = true;
+        }
     }
     if (found) t = crackT + best;
     return found;
@@ -600,13 +642,15 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
         const std::vector<Crossing>& old = coarse->crossings;
         std::size_t first = 0;
         for (std::size_t k = 1; k < old.size(); ++k)
-            if (old[k].segment != old[first].segment ? old[k].segment < old[first].segment : old[k].along < old[first].along)
+            if (old[k].segment != old[first].segment ? old[k].segment < old[first].segment
+                                                     : old[k].along < old[first].along)
                 first = k;
         const std::size_t fresh = hits.size();
         for (std::size_t i = 0; i < old.size(); ++i) {
             const std::size_t k = (first + i) % old.size();
             const int ray = rayAt(coarse->rays.gridIndex(old[k].ray) * coarseStep);
-            hits.push_back({ray, old[k].kind, old[k].crackT, old[k].segment, coarseStep * old[k].along, static_cast<int>(k)});
+            hits.push_back(
+                {ray, old[k].kind, old[k].crackT, old[k].segment, coarseStep * old[k].along, static_cast<int>(k)});
         }
         std::inplace_merge(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(fresh), hits.end(), walkOrder);
     }
@@ -666,7 +710,8 @@ Contour castRaysImpl(const LoopView& view, const RaySet& rays, const Field& fiel
             if (k + 1 < count) highest = 0.5 * (contour.crossings[ids[k + 1]].crackT + c.crackT);
             // In closed form where the polygon meets the ray; else search along the ray, close to
             // the polygon first (it lies within its chord error of the surface).
-            bool found = cellRoot(field, center, d, inwardSign, c.kind == CrossingKind::InOut, c.crackT, lowest, highest, c.t);
+            bool found =
+                cellRoot(field, center, d, inwardSign, c.kind == CrossingKind::InOut, c.crackT, lowest, highest, c.t);
             for (double reach : {0.5, 1.5}) {
                 if (found) break;
                 const double lower = std::max(c.crackT - reach, lowest), upper = std::min(c.crackT + reach, highest);
@@ -729,13 +774,12 @@ std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane)
     const detail::PixelWindow window = detail::pixelWindow(plane);
     DirectPixels direct;
     if (window.values) {
-        direct = {window.values, window.min, window.width,
-                  glm::max(window.min, plan.pixelMin) + 1,
+        direct = {window.values, window.min, window.width, glm::max(window.min, plan.pixelMin) + 1,
                   glm::min(window.min + glm::ivec2(window.width, window.height) - 1, plan.pixelMax)};
     }
     return traceLoops([&](int u, int v) { return plane.inside(u, v); }, [&](int u, int v) { return plane.value(u, v); },
-                      [&](const glm::ivec2& corner) { return plane.saddleJoins(corner); }, direct, seeds,
-                      plan.pixelMin, plan.pixelMax + 1);
+                      [&](const glm::ivec2& corner) { return plane.saddleJoins(corner); }, direct, seeds, plan.pixelMin,
+                      plan.pixelMax + 1);
 }
 
 std::vector<BoundaryLoop> detail::traceBoundaries(const FieldImage& image)
@@ -747,9 +791,8 @@ std::vector<BoundaryLoop> detail::traceBoundaries(const FieldImage& image)
     const DirectPixels direct{image.values.data(), image.origin, image.width, image.origin + 1,
                               image.origin + glm::ivec2(image.width, image.height) - 1};
     // An image has no planes beside it: every saddle joins (8-connected).
-    return traceLoops([&](int u, int v) { return image.inside(u, v); },
-                      [&](int u, int v) { return image.value(u, v); }, [](const glm::ivec2&) { return true; },
-                      direct, seeds, image.origin - 1,
+    return traceLoops([&](int u, int v) { return image.inside(u, v); }, [&](int u, int v) { return image.value(u, v); },
+                      [](const glm::ivec2&) { return true; }, direct, seeds, image.origin - 1,
                       image.origin + glm::ivec2(image.width, image.height));
 }
 
@@ -833,7 +876,8 @@ double polygonArea(const std::vector<glm::dvec2>& polygon)
     return 0.5 * area2;
 }
 
-double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons, const glm::dvec2& p)
+double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons,
+                   const glm::dvec2& p)
 {
     if (!liesInside(loop, p)) return -1.0;
     double depth = boundaryClearance(loop, p);
@@ -844,14 +888,18 @@ double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector
     return depth;
 }
 
-double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons, glm::dvec2& point)
+double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons,
+                          glm::dvec2& point)
 {
     // The box they all share, and 64 x 64 points over it: a quarter pixel apart in a box 16 pixels
     // wide, finer in the slivers where a branch barely touches a slab.
     glm::dvec2 lo(-std::numeric_limits<double>::infinity()), hi(std::numeric_limits<double>::infinity());
     auto clip = [&](const std::vector<glm::dvec2>& polygon) {
         glm::dvec2 a(std::numeric_limits<double>::infinity()), b(-std::numeric_limits<double>::infinity());
-        for (const glm::dvec2& q : polygon) { a = glm::min(a, q); b = glm::max(b, q); }
+        for (const glm::dvec2& q : polygon) {
+            a = glm::min(a, q);
+            b = glm::max(b, q);
+        }
         lo = glm::max(lo, a);
         hi = glm::min(hi, b);
     };
@@ -919,7 +967,8 @@ Contour castPolygon(const LoopView& view, const RaySet& rays)
     return contour;
 }
 
-Contour detail::castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays, const FieldImage& image)
+Contour detail::castRays(const BoundaryLoop& loop, const glm::dvec2& center, const RaySet& rays,
+                         const FieldImage& image)
 {
     return castRaysImpl(viewFrom(loop, center), rays, image);
 }

@@ -10,9 +10,18 @@ namespace pipetile {
 
 namespace {
 
-bool isUp(EdgeType t) { return t == EdgeType::UpIn || t == EdgeType::UpOut; }
-bool isIn(EdgeType t) { return t == EdgeType::UpIn || t == EdgeType::DownIn; }
-bool sameRay(EdgeType t) { return t != EdgeType::Forward && t != EdgeType::Backward; }
+bool isUp(EdgeType t)
+{
+    return t == EdgeType::UpIn || t == EdgeType::UpOut;
+}
+bool isIn(EdgeType t)
+{
+    return t == EdgeType::UpIn || t == EdgeType::DownIn;
+}
+bool sameRay(EdgeType t)
+{
+    return t != EdgeType::Forward && t != EdgeType::Backward;
+}
 
 // What rules [5]-[8] look at in an item of an excursion.
 enum class Io { In, Out, Paired };
@@ -84,8 +93,9 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
         for (int k = 0; k < candidateCount(x); ++k) {
             if (!eligible(candidate(x, k))) continue;
             const bool better = best < 0 ? true
-                              : rank.empty() ? c.depth.empty() ? false : c.depth[candidate(x, k)] > c.depth[candidate(x, best)]
-                                             : rank[x][k] < rank[x][best];
+                                : rank.empty()
+                                    ? c.depth.empty() ? false : c.depth[candidate(x, k)] > c.depth[candidate(x, best)]
+                                    : rank[x][k] < rank[x][best];
             if (better) best = k;
         }
         return best < 0 ? -1 : candidate(x, best);
@@ -96,7 +106,7 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
     }
     mStart = preferred(0, [](int) { return true; });
     auto rotated = [&](int edge) { return (edge - mStart + m) % m; }; // position on the walk from F_0
-    std::vector<int> level(static_cast<std::size_t>(m)); // sector level each edge starts at, from F_0
+    std::vector<int> level(static_cast<std::size_t>(m));              // sector level each edge starts at, from F_0
     for (int i = 0, lifted = 0; i < m; ++i) {
         const int edge = (mStart + i) % m;
         level[edge] = lifted;
@@ -146,8 +156,10 @@ ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<i
         const int node = parseExcursion(c, from, to);
         const bool up = mNodes[node].kind == NodeKind::Up;
         // Rule [2]: U hangs left of level-1 node `ray`, D right of level-1 node x (= ray - 1).
-        if (up) mNodes[levelOne(ray)].left = node;
-        else mNodes[levelOne(x)].right = node;
+        if (up)
+            mNodes[levelOne(ray)].left = node;
+        else
+            mNodes[levelOne(x)].right = node;
         // Keys: the end of F_x, then the excursion's crossings by child and position; the last
         // excursion edge ends where F_{x+1} starts, which keeps its main-path key.
         mKeys[(mStart + from) % m] = {x + 1, 0, 0, 0};
@@ -190,7 +202,10 @@ int ContourTree::parseItems(const ContourString& c, int from, int to, std::vecto
         for (int j = k; j < to; ++j) {
             const EdgeType u = c.edges[edgeAt(j)];
             level += u == EdgeType::Forward ? 1 : u == EdgeType::Backward ? -1 : 0;
-            if (level == 0) { close = j; break; }
+            if (level == 0) {
+                close = j;
+                break;
+            }
         }
         PIPETILE_ASSERT(close >= 0, "ContourTree: unbalanced excursion");
         std::vector<int> inner;
@@ -204,9 +219,9 @@ int ContourTree::parseItems(const ContourString& c, int from, int to, std::vecto
         // The composite runs InOut -> OutIn when it leaves forward (F ... B), else OutIn -> InOut;
         // its direction is that of its first inner item.
         const bool in = t == EdgeType::Forward;
-        const bool up = inner.empty() ? true
+        const bool up = inner.empty()                                  ? true
                         : mNodes[inner.front()].kind == NodeKind::Edge ? isUp(mNodes[inner.front()].type)
-                                                                        : mNodes[inner.front()].kind == NodeKind::Up;
+                                                                       : mNodes[inner.front()].kind == NodeKind::Up;
         n.kind = up ? NodeKind::Up : NodeKind::Down;
         n.type = up ? (in ? EdgeType::UpIn : EdgeType::UpOut) : (in ? EdgeType::DownIn : EdgeType::DownOut);
         n.children.push_back(open);
@@ -260,7 +275,8 @@ int ContourTree::parseExcursion(const ContourString& c, int from, int to)
             if (io(items[i]) == Io::In && io(items[i + 1]) == Io::Paired && io(items[i + 2]) == Io::Out &&
                 up(items[i]) == up(items[i + 2]) && up(items[i + 1]) != up(items[i])) {
                 items[i] = combine(8, up(items[i]), {items[i], items[i + 1], items[i + 2]});
-                items.erase(items.begin() + static_cast<std::ptrdiff_t>(i) + 1, items.begin() + static_cast<std::ptrdiff_t>(i) + 3);
+                items.erase(items.begin() + static_cast<std::ptrdiff_t>(i) + 1,
+                            items.begin() + static_cast<std::ptrdiff_t>(i) + 3);
                 changed = true;
             }
         }
@@ -288,23 +304,34 @@ std::string ContourTree::toString() const
         switch (n.kind) {
         case NodeKind::Root:
             s += "(R";
-            for (int child : n.children) { s += ' '; self(self, child); }
+            for (int child : n.children) {
+                s += ' ';
+                self(self, child);
+            }
             s += ')';
             return;
         case NodeKind::LevelOne:
             s += "(1 F";
-            if (n.left >= 0) { s += " U:"; self(self, n.left); }
-            if (n.right >= 0) { s += " D:"; self(self, n.right); }
+            if (n.left >= 0) {
+                s += " U:";
+                self(self, n.left);
+            }
+            if (n.right >= 0) {
+                s += " D:";
+                self(self, n.right);
+            }
             s += ')';
             return;
-        case NodeKind::Edge:
-            s += pipetile::toString(n.type);
-            return;
+        case NodeKind::Edge: s += pipetile::toString(n.type); return;
         case NodeKind::Up:
         case NodeKind::Down:
-            s += '(' + std::to_string(n.rule) + (n.rule == 9 ? std::string(pipetile::toString(n.type))
-                                                              : std::string(n.kind == NodeKind::Up ? "U" : "D"));
-            for (int child : n.children) { s += ' '; self(self, child); }
+            s += '(' + std::to_string(n.rule) +
+                 (n.rule == 9 ? std::string(pipetile::toString(n.type))
+                              : std::string(n.kind == NodeKind::Up ? "U" : "D"));
+            for (int child : n.children) {
+                s += ' ';
+                self(self, child);
+            }
             s += ')';
             return;
         }

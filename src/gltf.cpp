@@ -156,7 +156,8 @@ void addLevel(tinygltf::Model& model, BinaryChunk& chunk, const NestedLevels& le
     if (views.normal >= 0)
         primitive.attributes["NORMAL"] = addAccessor(model, views.normal, kFloat, TINYGLTF_TYPE_VEC3, count);
     if (views.error >= 0)
-        primitive.attributes["_ERROR"] = addAccessor(model, views.error, kFloat, TINYGLTF_TYPE_SCALAR, count, &views.errors);
+        primitive.attributes["_ERROR"] =
+            addAccessor(model, views.error, kFloat, TINYGLTF_TYPE_SCALAR, count, &views.errors);
     std::vector<std::uint32_t> indices;
     indices.reserve(3 * levels.triangles[L].size());
     for (const Triangle& t : levels.triangles[L]) indices.insert(indices.end(), t.begin(), t.end());

@@ -97,12 +97,15 @@ bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<S
 }
 
 // A run of polygon points owned by one partner, cyclically: points start .. start + length - 1.
-struct OwnerRun { int start, length, owner; };
+struct OwnerRun {
+    int start, length, owner;
+};
 
 // Each point of a polygon goes to the partner whose polygon passes nearest (the planes share
 // (u, v)); near a saddle the partners are the polygon's lobes, so the owners form arcs. Empty if
 // one partner owns every point.
-std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon, const std::vector<const std::vector<glm::dvec2>*>& partners)
+std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon,
+                                const std::vector<const std::vector<glm::dvec2>*>& partners)
 {
     const int m = static_cast<int>(polygon.size());
     std::vector<int> owner(m, 0);
@@ -112,7 +115,10 @@ std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon, const st
             for (const glm::dvec2& q : *partners[k]) {
                 const glm::dvec2 d = q - polygon[i];
                 const double distance2 = d.x * d.x + d.y * d.y;
-                if (distance2 < best) { best = distance2; owner[i] = static_cast<int>(k); }
+                if (distance2 < best) {
+                    best = distance2;
+                    owner[i] = static_cast<int>(k);
+                }
             }
     }
     std::vector<OwnerRun> runs;
@@ -220,7 +226,8 @@ struct SlabLabels {
     Labels labels{0};
     std::int32_t id(int layer, const glm::ivec2& pixel) const
     {
-        return static_cast<std::int32_t>((static_cast<std::size_t>(layer) * height + (pixel.y - lo.y)) * width + (pixel.x - lo.x));
+        return static_cast<std::int32_t>((static_cast<std::size_t>(layer) * height + (pixel.y - lo.y)) * width +
+                                         (pixel.x - lo.x));
     }
 };
 
@@ -316,7 +323,8 @@ SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const Pixe
                 if (y + 1 < slab.height && x > 0) linkDiagonal({-1, 1});
                 if (l + 1 < slab.depth) link(l + 1, {0, 0});
                 if (acrossVoxelPlanes(l)) linkAcrossSaddles(l, pixel, in);
-                if (!in && (x == 0 || y == 0 || x + 1 == slab.width || y + 1 == slab.height)) slab.labels.join(p, exterior);
+                if (!in && (x == 0 || y == 0 || x + 1 == slab.width || y + 1 == slab.height))
+                    slab.labels.join(p, exterior);
             }
     return slab;
 }
@@ -326,9 +334,9 @@ SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const Pixe
 // Boxes of different clusters are disjoint and each holds every inside region it meets, so no
 // region joins two clusters: the pieces are those one box around all the loops gives.
 struct LoopCluster {
-    PixelBox box;                 // the pixels of its loops
-    std::int64_t margin = 0;      // labelled over box widened by margin
-    std::vector<int> loops;       // below: i, above: below.loops.size() + j
+    PixelBox box;            // the pixels of its loops
+    std::int64_t margin = 0; // labelled over box widened by margin
+    std::vector<int> loops;  // below: i, above: below.loops.size() + j
     bool labelled = false;
 };
 
@@ -341,7 +349,8 @@ bool mergeOverlapping(std::vector<LoopCluster>& clusters, const SlicePlan& plan)
         Labels groups(clusters.size());
         for (std::size_t a = 0; a < clusters.size(); ++a)
             for (std::size_t b = a + 1; b < clusters.size(); ++b)
-                if (widened(clusters[a].box, clusters[a].margin, plan).overlaps(widened(clusters[b].box, clusters[b].margin, plan))) {
+                if (widened(clusters[a].box, clusters[a].margin, plan)
+                        .overlaps(widened(clusters[b].box, clusters[b].margin, plan))) {
                     groups.join(static_cast<std::int32_t>(a), static_cast<std::int32_t>(b));
                     merged = true;
                 }
@@ -398,7 +407,9 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
     };
     // A loop separates the inside and outside regions beside its first crack (in its cluster's
     // labels); loops separating the same two lie on one piece.
-    struct Key { std::int32_t in = 0, out = 0; };
+    struct Key {
+        std::int32_t in = 0, out = 0;
+    };
     std::vector<Key> keys(below.loops.size() + above.loops.size());
     std::vector<int> clusterOfLoop(keys.size(), -1);
     std::vector<LoopCluster> clusters = clusterLoops(plan, below, above);
@@ -420,7 +431,8 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
     // Pieces in order of their first loop, below then above, as one box around all loops gives them.
     std::map<std::tuple<int, std::int32_t, std::int32_t>, std::size_t> pieceOf;
     for (int index = 0; index < static_cast<int>(keys.size()); ++index) {
-        const auto [it, added] = pieceOf.insert({{clusterOfLoop[index], keys[index].in, keys[index].out}, pieces.size()});
+        const auto [it, added] =
+            pieceOf.insert({{clusterOfLoop[index], keys[index].in, keys[index].out}, pieces.size()});
         if (added) pieces.emplace_back();
         if (index < belowCount)
             pieces[it->second].below.push_back(index);
@@ -466,7 +478,8 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
             // A band's change halves with its slab where the shape changes smoothly; where it does
             // not (the horns of a crescent running along a pipe's open rim), it takes planes closer
             // than minThickness.
-            if (p.kind == EventKind::Band && shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange)
+            if (p.kind == EventKind::Band &&
+                shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange)
                 target = target == 0.0 ? minThickness / 4.0 : std::min(target, minThickness / 4.0);
         }
         return target;
@@ -577,8 +590,10 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
         for (std::vector<OwnerRun>* r : {&runs, &innerRuns})
             std::sort(r->begin(), r->end(), [](const OwnerRun& x, const OwnerRun& y) { return x.start < y.start; });
         if (!onePerOwner(innerRuns)) return cutsNearest(single, *inner, runs, arcs);
-        const std::size_t shift = static_cast<std::size_t>(
-            std::find_if(innerRuns.begin(), innerRuns.end(), [&](const OwnerRun& r) { return r.owner == runs[0].owner; }) - innerRuns.begin());
+        const std::size_t shift =
+            static_cast<std::size_t>(std::find_if(innerRuns.begin(), innerRuns.end(),
+                                                  [&](const OwnerRun& r) { return r.owner == runs[0].owner; }) -
+                                     innerRuns.begin());
         for (std::size_t k = 0; k < runs.size(); ++k)
             if (innerRuns[(k + shift) % innerRuns.size()].owner != runs[k].owner) return false; // not in the same order
         for (std::size_t k = 0; k < runs.size(); ++k) {

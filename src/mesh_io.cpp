@@ -28,7 +28,6 @@ std::string lowerExtension(const std::string& path)
     return ext;
 }
 
-
 // ---- Writing: pipetile's own serialisers, every byte through the OutputSet's checked stream --
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "binary PLY and STL are written in the host's byte order");
@@ -257,7 +256,8 @@ double writeMesh(const TriangleMesh& mesh, OutputSet& outputs, const std::string
 double writeMesh(const TriangleMesh& mesh, const std::string& path, const MeshWriteOptions& options)
 {
     if (!isMeshExtension(path))
-        throw Error("'" + path + "': unknown mesh format '" + lowerExtension(path) + "'; use one of .ply .obj .stl .off");
+        throw Error("'" + path + "': unknown mesh format '" + lowerExtension(path) +
+                    "'; use one of .ply .obj .stl .off");
     OutputSet outputs({path});
     const double rounding = writeMesh(mesh, outputs, path, options);
     outputs.commit();

@@ -47,7 +47,10 @@ struct Malformed {
     std::string what;
 };
 
-[[noreturn]] void fail(const std::string& file, const std::string& what) { throw Error("'" + file + "': " + what); }
+[[noreturn]] void fail(const std::string& file, const std::string& what)
+{
+    throw Error("'" + file + "': " + what);
+}
 
 // "face 12 (line 40)"; line 0 means a binary file, which has no lines.
 std::string element(const std::string& kind, std::int64_t number, std::size_t line)
@@ -74,9 +77,15 @@ std::string number(double x)
     return buffer;
 }
 
-std::string point(const glm::dvec3& p) { return "(" + number(p.x) + ", " + number(p.y) + ", " + number(p.z) + ")"; }
+std::string point(const glm::dvec3& p)
+{
+    return "(" + number(p.x) + ", " + number(p.y) + ", " + number(p.z) + ")";
+}
 
-bool isSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f'; }
+bool isSpace(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
 
 // strtod reads what text formats write: "1e-3", "-0", "nan", "inf" (refused later, by name), and
 // overflows to infinity (refused too) rather than failing.
@@ -115,8 +124,8 @@ public:
         ++mLine;
         return true;
     }
-    std::size_t line() const { return mLine; }     // of the line `next` returned last
-    std::size_t offset() const { return mPos; }    // of the line after it
+    std::size_t line() const { return mLine; }  // of the line `next` returned last
+    std::size_t offset() const { return mPos; } // of the line after it
 
 private:
     std::string_view mText;
@@ -169,11 +178,11 @@ enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64
 std::optional<PlyType> plyType(std::string_view name)
 {
     static const std::pair<const char*, PlyType> kNames[] = {
-        {"char", PlyType::Int8},     {"int8", PlyType::Int8},       {"uchar", PlyType::UInt8},
-        {"uint8", PlyType::UInt8},   {"short", PlyType::Int16},     {"int16", PlyType::Int16},
-        {"ushort", PlyType::UInt16}, {"uint16", PlyType::UInt16},   {"int", PlyType::Int32},
-        {"int32", PlyType::Int32},   {"uint", PlyType::UInt32},     {"uint32", PlyType::UInt32},
-        {"float", PlyType::Float32}, {"float32", PlyType::Float32}, {"double", PlyType::Float64},
+        {"char", PlyType::Int8},      {"int8", PlyType::Int8},       {"uchar", PlyType::UInt8},
+        {"uint8", PlyType::UInt8},    {"short", PlyType::Int16},     {"int16", PlyType::Int16},
+        {"ushort", PlyType::UInt16},  {"uint16", PlyType::UInt16},   {"int", PlyType::Int32},
+        {"int32", PlyType::Int32},    {"uint", PlyType::UInt32},     {"uint32", PlyType::UInt32},
+        {"float", PlyType::Float32},  {"float32", PlyType::Float32}, {"double", PlyType::Float64},
         {"float64", PlyType::Float64}};
     for (const auto& [text, type] : kNames)
         if (name == text) return type;
@@ -183,15 +192,22 @@ std::optional<PlyType> plyType(std::string_view name)
 std::size_t plySize(PlyType type)
 {
     switch (type) {
-    case PlyType::Int8: case PlyType::UInt8: return 1;
-    case PlyType::Int16: case PlyType::UInt16: return 2;
-    case PlyType::Int32: case PlyType::UInt32: case PlyType::Float32: return 4;
+    case PlyType::Int8:
+    case PlyType::UInt8: return 1;
+    case PlyType::Int16:
+    case PlyType::UInt16: return 2;
+    case PlyType::Int32:
+    case PlyType::UInt32:
+    case PlyType::Float32: return 4;
     case PlyType::Float64: return 8;
     }
     return 8;
 }
 
-bool isInteger(PlyType type) { return type != PlyType::Float32 && type != PlyType::Float64; }
+bool isInteger(PlyType type)
+{
+    return type != PlyType::Float32 && type != PlyType::Float64;
+}
 
 struct PlyProperty {
     std::string name;
@@ -218,7 +234,8 @@ PlyProperty parsePlyProperty(const std::vector<std::string_view>& t, const std::
 {
     if (t.size() == 3 && plyType(t[1])) return {std::string(t[2]), *plyType(t[1]), std::nullopt};
     if (t.size() == 5 && t[1] == "list" && plyType(t[2]) && plyType(t[3])) {
-        if (!isInteger(*plyType(t[2]))) fail(file, at + ": the length of list " + quote(t[4]) + " must have an integer type");
+        if (!isInteger(*plyType(t[2])))
+            fail(file, at + ": the length of list " + quote(t[4]) + " must have an integer type");
         return {std::string(t[4]), *plyType(t[3]), plyType(t[2])};
     }
     fail(file, at + ": cannot read this property; expected 'property TYPE NAME' or 'property list TYPE TYPE NAME'");
@@ -244,10 +261,14 @@ PlyHeader parsePlyHeader(std::string_view bytes, const std::string& file)
         }
         if (t[0] == "format" && t.size() == 3) {
             hasFormat = true;
-            if (t[1] == "ascii") header.encoding = PlyEncoding::Ascii;
-            else if (t[1] == "binary_little_endian") header.encoding = PlyEncoding::LittleEndian;
-            else if (t[1] == "binary_big_endian") header.encoding = PlyEncoding::BigEndian;
-            else fail(file, at + ": unknown PLY format " + quote(t[1]));
+            if (t[1] == "ascii")
+                header.encoding = PlyEncoding::Ascii;
+            else if (t[1] == "binary_little_endian")
+                header.encoding = PlyEncoding::LittleEndian;
+            else if (t[1] == "binary_big_endian")
+                header.encoding = PlyEncoding::BigEndian;
+            else
+                fail(file, at + ": unknown PLY format " + quote(t[1]));
         } else if (t[0] == "element" && t.size() == 3) {
             const std::optional<std::int64_t> count = toInteger(t[2]);
             if (!count || *count < 0) fail(file, at + ": element " + quote(t[1]) + " has the count " + quote(t[2]));
@@ -280,7 +301,9 @@ T loadBinary(const char* p, bool bigEndian)
 class PlyBody {
 public:
     PlyBody(std::string_view body, PlyEncoding encoding, std::size_t firstLine)
-        : mData(body), mEncoding(encoding), mTokens(body, firstLine)
+        : mData(body),
+          mEncoding(encoding),
+          mTokens(body, firstLine)
     {
     }
 
@@ -383,7 +406,8 @@ void readPlyVertices(PlyBody& body, const PlyElement& e, RawMesh& mesh, const st
     for (int axis = 0; axis < 3; ++axis) {
         const char* name = axis == 0 ? "x" : axis == 1 ? "y" : "z";
         if (xyz[axis] < 0) fail(file, "the PLY element 'vertex' has no property '" + std::string(name) + "'");
-        if (e.properties[xyz[axis]].countType) fail(file, "the PLY vertex property '" + std::string(name) + "' is a list");
+        if (e.properties[xyz[axis]].countType)
+            fail(file, "the PLY vertex property '" + std::string(name) + "' is a list");
     }
     if (e.count > kMaxVertices) fail(file, std::to_string(e.count) + " vertices, more than pipetile can index");
     mesh.vertices.reserve(std::min<std::uint64_t>(e.count, body.size() / 3)); // each takes 3 bytes at least
@@ -393,8 +417,10 @@ void readPlyVertices(PlyBody& body, const PlyElement& e, RawMesh& mesh, const st
             glm::dvec3 p(0.0);
             for (std::size_t k = 0; k < e.properties.size(); ++k) {
                 const int axis = static_cast<int>(std::find(xyz.begin(), xyz.end(), static_cast<int>(k)) - xyz.begin());
-                if (axis < 3) p[axis] = body.real(e.properties[k].type);
-                else body.skip(e.properties[k]);
+                if (axis < 3)
+                    p[axis] = body.real(e.properties[k].type);
+                else
+                    body.skip(e.properties[k]);
             }
             mesh.vertices.push_back(p);
             if (body.text()) mesh.vertexLines.push_back(body.line());
@@ -451,9 +477,12 @@ RawMesh parsePly(std::string_view bytes, const std::string& file)
     PlyBody body(bytes.substr(header.bodyOffset), header.encoding, header.bodyLine);
     RawMesh mesh;
     for (const PlyElement& e : header.elements) {
-        if (e.name == "vertex") readPlyVertices(body, e, mesh, file);
-        else if (e.name == "face") readPlyFaces(body, e, mesh, file);
-        else skipPlyElement(body, e, file);
+        if (e.name == "vertex")
+            readPlyVertices(body, e, mesh, file);
+        else if (e.name == "face")
+            readPlyFaces(body, e, mesh, file);
+        else
+            skipPlyElement(body, e, file);
     }
     return mesh;
 }
@@ -462,7 +491,8 @@ RawMesh parsePly(std::string_view bytes, const std::string& file)
 
 // The vertex a face corner ("7", "7/2", "7//3", "-1/5") refers to, 1-based; a negative index
 // counts back from the last vertex before the face.
-std::int64_t objCorner(std::string_view corner, std::size_t verticesBefore, const std::string& file, const std::string& at)
+std::int64_t objCorner(std::string_view corner, std::size_t verticesBefore, const std::string& file,
+                       const std::string& at)
 {
     const std::string_view ref = corner.substr(0, corner.find('/'));
     const std::optional<std::int64_t> index = toInteger(ref);
@@ -499,8 +529,10 @@ RawMesh parseObj(std::string_view bytes, const std::string& file)
             mesh.vertexLines.push_back(lines.line());
         } else if (t[0] == "f") {
             const std::string at = element("face", static_cast<std::int64_t>(mesh.faceEnds.size()) + 1, lines.line());
-            if (t.size() < 4) fail(file, at + ": it lists " + std::to_string(t.size() - 1) + " vertices; a face needs at least 3");
-            for (std::size_t k = 1; k < t.size(); ++k) mesh.corners.push_back(objCorner(t[k], mesh.vertices.size(), file, at));
+            if (t.size() < 4)
+                fail(file, at + ": it lists " + std::to_string(t.size() - 1) + " vertices; a face needs at least 3");
+            for (std::size_t k = 1; k < t.size(); ++k)
+                mesh.corners.push_back(objCorner(t[k], mesh.vertices.size(), file, at));
             mesh.faceEnds.push_back(mesh.corners.size());
             mesh.faceLines.push_back(lines.line());
         }
@@ -528,9 +560,11 @@ void checkOffKeyword(const std::vector<std::string_view>& t, const std::string& 
     std::string_view k = t[0];
     for (const char* prefix : {"ST", "C", "N"})
         if (k.substr(0, std::strlen(prefix)) == prefix) k.remove_prefix(std::strlen(prefix));
-    if (k == "4OFF" || k == "nOFF" || k == "4nOFF") fail(file, "OFF with other than 3 coordinates per vertex is not supported");
+    if (k == "4OFF" || k == "nOFF" || k == "4nOFF")
+        fail(file, "OFF with other than 3 coordinates per vertex is not supported");
     if (k != "OFF") fail(file, "not an OFF file: it does not start with OFF");
-    if (t.size() > 1 && t[1] == "BINARY") fail(file, "binary OFF is not supported; save the mesh as text OFF, PLY or STL");
+    if (t.size() > 1 && t[1] == "BINARY")
+        fail(file, "binary OFF is not supported; save the mesh as text OFF, PLY or STL");
 }
 
 RawMesh parseOff(std::string_view bytes, const std::string& file)
@@ -540,8 +574,10 @@ RawMesh parseOff(std::string_view bytes, const std::string& file)
     if (!nextTokens(lines, t)) fail(file, "the file is empty");
     checkOffKeyword(t, file);
     // The counts "vertices faces edges" follow the keyword, on its line or the next.
-    if (t.size() > 1) t.erase(t.begin());
-    else if (!nextTokens(lines, t)) fail(file, "the file ends before the vertex and face counts");
+    if (t.size() > 1)
+        t.erase(t.begin());
+    else if (!nextTokens(lines, t))
+        fail(file, "the file ends before the vertex and face counts");
     const std::optional<std::int64_t> vertexCount = toInteger(t[0]);
     const std::optional<std::int64_t> faceCount = t.size() > 1 ? toInteger(t[1]) : std::nullopt;
     if (!vertexCount || !faceCount || *vertexCount < 0 || *faceCount < 0)
@@ -553,7 +589,8 @@ RawMesh parseOff(std::string_view bytes, const std::string& file)
     mesh.vertices.reserve(std::min<std::uint64_t>(*vertexCount, bytes.size() / 6)); // "0 0 0\n" at least
     for (std::int64_t i = 0; i < *vertexCount; ++i) {
         if (!nextTokens(lines, t))
-            fail(file, "the file ends after " + std::to_string(i) + " of " + std::to_string(*vertexCount) + " vertices; it is truncated");
+            fail(file, "the file ends after " + std::to_string(i) + " of " + std::to_string(*vertexCount) +
+                           " vertices; it is truncated");
         const std::string at = element("vertex", i, lines.line());
         if (t.size() < 3) fail(file, at + ": it has fewer than 3 coordinates");
         glm::dvec3 p;
@@ -567,13 +604,15 @@ RawMesh parseOff(std::string_view bytes, const std::string& file)
     }
     for (std::int64_t f = 0; f < *faceCount; ++f) {
         if (!nextTokens(lines, t))
-            fail(file, "the file ends after " + std::to_string(f) + " of " + std::to_string(*faceCount) + " faces; it is truncated");
+            fail(file, "the file ends after " + std::to_string(f) + " of " + std::to_string(*faceCount) +
+                           " faces; it is truncated");
         const std::string at = element("face", f, lines.line());
         const std::optional<std::int64_t> n = toInteger(t[0]);
         if (!n) fail(file, at + ": " + quote(t[0]) + " is not a vertex count");
         if (*n < 3) fail(file, at + ": it lists " + std::to_string(*n) + " vertices; a face needs at least 3");
         if (static_cast<std::uint64_t>(*n) > t.size() - 1)
-            fail(file, at + ": it lists " + std::to_string(*n) + " vertices but gives " + std::to_string(t.size() - 1) + " indices");
+            fail(file, at + ": it lists " + std::to_string(*n) + " vertices but gives " + std::to_string(t.size() - 1) +
+                           " indices");
         for (std::int64_t k = 1; k <= *n; ++k) {
             const std::optional<std::int64_t> index = toInteger(t[k]);
             if (!index) fail(file, at + ": " + quote(t[k]) + " is not a vertex index");
@@ -596,7 +635,10 @@ struct StlSoup {
 
 constexpr std::size_t kStlHeader = 84, kStlFacet = 50; // 80-byte header + uint32 count; 12 floats + uint16
 
-std::uint64_t stlBinaryCount(std::string_view bytes) { return loadBinary<std::uint32_t>(bytes.data() + 80, false); }
+std::uint64_t stlBinaryCount(std::string_view bytes)
+{
+    return loadBinary<std::uint32_t>(bytes.data() + 80, false);
+}
 
 bool isBinaryStl(std::string_view bytes)
 {
@@ -633,7 +675,9 @@ StlSoup readAsciiStl(std::string_view bytes, const std::string& file)
     };
     auto expect = [&](std::string_view word) {
         const std::string_view token = next();
-        if (token != word) fail(file, "line " + std::to_string(tokens.line()) + ": expected '" + std::string(word) + "', found " + quote(token));
+        if (token != word)
+            fail(file, "line " + std::to_string(tokens.line()) + ": expected '" + std::string(word) + "', found " +
+                           quote(token));
     };
     for (std::string_view token = tokens.next(); !token.empty(); token = tokens.next()) {
         const std::string at = "line " + std::to_string(tokens.line());
@@ -662,8 +706,9 @@ StlSoup readAsciiStl(std::string_view bytes, const std::string& file)
         } else if (token == "endloop" && inFacet) {
         } else if (token == "endfacet" && inFacet) {
             if (cornersInFacet != 3)
-                fail(file, element("facet", static_cast<std::int64_t>(soup.facetLines.size()) - 1, soup.facetLines.back()) +
-                               ": it has " + std::to_string(cornersInFacet) + " corners; an STL facet has 3");
+                fail(file,
+                     element("facet", static_cast<std::int64_t>(soup.facetLines.size()) - 1, soup.facetLines.back()) +
+                         ": it has " + std::to_string(cornersInFacet) + " corners; an STL facet has 3");
             inFacet = false;
         } else {
             fail(file, at + ": unexpected " + quote(token));
@@ -691,8 +736,10 @@ RawMesh weldStl(const StlSoup& soup, const std::string& file)
         const glm::dvec3& p = soup.corners[c];
         const std::size_t facet = c / 3;
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            fail(file, element("facet", static_cast<std::int64_t>(facet), facet < soup.facetLines.size() ? soup.facetLines[facet] : 0) +
-                           " has the corner " + point(p) + ": a coordinate is not a finite number; the file is corrupt");
+            fail(file, element("facet", static_cast<std::int64_t>(facet),
+                               facet < soup.facetLines.size() ? soup.facetLines[facet] : 0) +
+                           " has the corner " + point(p) +
+                           ": a coordinate is not a finite number; the file is corrupt");
         std::array<std::uint64_t, 3> key;
         for (int axis = 0; axis < 3; ++axis) {
             const double x = p[axis] + 0.0; // -0 + 0 is +0: one key for both zeros
@@ -726,7 +773,8 @@ void checkCoordinates(const RawMesh& mesh, const std::string& file)
     for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
         const glm::dvec3& p = mesh.vertices[i];
         if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) continue;
-        fail(file, element("vertex", static_cast<std::int64_t>(i) + mesh.firstIndex, i < mesh.vertexLines.size() ? mesh.vertexLines[i] : 0) +
+        fail(file, element("vertex", static_cast<std::int64_t>(i) + mesh.firstIndex,
+                           i < mesh.vertexLines.size() ? mesh.vertexLines[i] : 0) +
                        " is " + point(p) + ": a coordinate is not a finite number; the file is corrupt");
     }
 }
@@ -741,8 +789,10 @@ void checkIndices(const RawMesh& mesh, const std::string& file)
             if (index >= mesh.firstIndex && index - mesh.firstIndex < n) continue;
             const std::string has = n == 0 ? "the file has no vertices"
                                            : "the file has " + std::to_string(n) + " vertices, numbered " +
-                                                 std::to_string(mesh.firstIndex) + " to " + std::to_string(n - 1 + mesh.firstIndex);
-            fail(file, element("face", static_cast<std::int64_t>(f) + mesh.firstIndex, f < mesh.faceLines.size() ? mesh.faceLines[f] : 0) +
+                                                 std::to_string(mesh.firstIndex) + " to " +
+                                                 std::to_string(n - 1 + mesh.firstIndex);
+            fail(file, element("face", static_cast<std::int64_t>(f) + mesh.firstIndex,
+                               f < mesh.faceLines.size() ? mesh.faceLines[f] : 0) +
                            " refers to vertex " + std::to_string(index) + ", but " + has + "; the file is corrupt");
         }
     }
@@ -810,7 +860,8 @@ TriangleMesh readMesh(const std::string& path)
                     "'; use .ply .obj .stl .off");
     const std::uintmax_t size = std::filesystem::file_size(path, ec);
     std::ifstream in(path, std::ios::binary);
-    if (ec || !in) throw Error("'" + path + "': cannot be opened (" + std::strerror(errno) + "); check its permissions");
+    if (ec || !in)
+        throw Error("'" + path + "': cannot be opened (" + std::strerror(errno) + "); check its permissions");
     std::string bytes(size, '\0');
     if (!in.read(bytes.data(), static_cast<std::streamsize>(size)))
         throw Error("'" + path + "': could not be read to its end; check the file and the disk");

@@ -58,7 +58,10 @@ int nearest(int count, const glm::dvec2& target, const PointOf& pointOf, const A
         if (!accept(k)) continue;
         const glm::dvec2 d = pointOf(k) - target;
         const double distance2 = d.x * d.x + d.y * d.y;
-        if (best < 0 || distance2 < bestDistance2) { best = k; bestDistance2 = distance2; }
+        if (best < 0 || distance2 < bestDistance2) {
+            best = k;
+            bestDistance2 = distance2;
+        }
     }
     return best;
 }
@@ -121,15 +124,18 @@ double placeOn(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& p)
 
 // Replaces the triangle on edge u-v by a fan through `between` (vertices that lie on that edge,
 // in order from u to v), keeping its orientation: every other edge stays in the same triangles.
-void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t v, const std::vector<std::uint32_t>& between)
+void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t v,
+               const std::vector<std::uint32_t>& between)
 {
     for (std::size_t t = 0; t < triangles.size(); ++t)
         for (int k = 0; k < 3; ++k) {
             const std::uint32_t a = triangles[t][k], b = triangles[t][(k + 1) % 3], c = triangles[t][(k + 2) % 3];
             if (!((a == u && b == v) || (a == v && b == u))) continue;
             std::vector<std::uint32_t> chain{a};
-            if (a == u) chain.insert(chain.end(), between.begin(), between.end());
-            else chain.insert(chain.end(), between.rbegin(), between.rend());
+            if (a == u)
+                chain.insert(chain.end(), between.begin(), between.end());
+            else
+                chain.insert(chain.end(), between.rbegin(), between.rend());
             chain.push_back(b);
             triangles[t] = {chain[0], chain[1], c};
             for (std::size_t i = 1; i + 1 < chain.size(); ++i) triangles.push_back({chain[i], chain[i + 1], c});
@@ -140,7 +146,8 @@ void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t 
 
 // For each vertex of `coarse`, a vertex of `fine` at the same position, bit for bit; each vertex of
 // `fine` is taken once, duplicates in order. Sorting by the coordinates' bits finds them.
-std::vector<std::uint32_t> matchVertices(const std::vector<glm::dvec3>& coarse, const std::vector<glm::dvec3>& fine, int level)
+std::vector<std::uint32_t> matchVertices(const std::vector<glm::dvec3>& coarse, const std::vector<glm::dvec3>& fine,
+                                         int level)
 {
     using Key = std::array<std::uint64_t, 3>;
     auto keyOf = [](const glm::dvec3& p) {
@@ -222,8 +229,7 @@ void checkMeshOptions(const MeshOptions& options)
     if (options.threads < 0) throw UsageError("the threads must be 0 (all cores) or more", {Setting::Threads});
 }
 
-Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
-    : mVolume(volume), mOptions(options)
+Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options) : mVolume(volume), mOptions(options)
 {
     const Clock::time_point start = Clock::now();
     checkMeshOptions(options);
@@ -267,9 +273,15 @@ std::vector<Reconstruction::SliceLoop> Reconstruction::traceContours(double w, S
     const SlicePlane plane(mVolume, mPlan, w);
     std::vector<SliceLoop> loops;
     for (BoundaryLoop& loop : traceBoundaries(plane)) {
-        if (std::abs(loop.area) < mOptions.minContourArea) { ++counts.small; continue; }
+        if (std::abs(loop.area) < mOptions.minContourArea) {
+            ++counts.small;
+            continue;
+        }
         LoopView view = viewFrom(loop, centralPoint(loop));
-        if (view.winding != 1) { ++counts.unwound; continue; }
+        if (view.winding != 1) {
+            ++counts.unwound;
+            continue;
+        }
         RadialProfile profile = radialProfile(view, profileDirections());
         loops.push_back({std::move(loop), std::move(view), std::move(profile)});
     }
@@ -288,7 +300,8 @@ void Reconstruction::traceSlices()
     mPositions = mPlan.positions;
     std::vector<SliceCounts> counts(sliceCount);
     mLoops.assign(sliceCount, {});
-    forEachIndex(mOptions.threads, sliceCount, [&](std::size_t s) { mLoops[s] = traceContours(mPositions[s], counts[s]); });
+    forEachIndex(mOptions.threads, sliceCount,
+                 [&](std::size_t s) { mLoops[s] = traceContours(mPositions[s], counts[s]); });
     for (std::size_t s = 0; s < sliceCount; ++s) {
         mStats.droppedSmall += counts[s].small;
         mStats.droppedUnwound += counts[s].unwound;
@@ -299,8 +312,9 @@ void Reconstruction::traceSlices()
         }
     }
     if (mStats.contours == 0)
-        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() + "': no slice crosses the surface at iso " +
-                    std::to_string(mVolume.iso()) + " (" + std::to_string(sliceCount) +
+        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
+                        "': no slice crosses the surface at iso " + std::to_string(mVolume.iso()) + " (" +
+                        std::to_string(sliceCount) +
                         " slices); the object is thinner than the slice spacing: lower the spacing",
                     {Setting::Spacing});
 }
@@ -480,7 +494,8 @@ bool Reconstruction::splitJunction(Junction& junction) const
         if (!inner && arcs[junction.owner[a]] != 1) continue;
         const std::size_t b = (a + 1) % n;
         junction.chordArcs.push_back(static_cast<int>(a));
-        addSaddleNode(0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]])));
+        addSaddleNode(
+            0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]])));
     }
     composeParts(junction);
     return true;
@@ -498,7 +513,8 @@ void Reconstruction::composeParts(Junction& junction) const
         return at == junction.chordArcs.end() ? -1 : firstMiddle + static_cast<int>(at - junction.chordArcs.begin());
     };
     // Arc a of a polygon: from cut `from` to cut `to`, stepping `step` through its points.
-    auto appendArc = [](Part& part, int member, std::size_t size, int from, int to, int step, int fromNode, int toNode) {
+    auto appendArc = [](Part& part, int member, std::size_t size, int from, int to, int step, int fromNode,
+                        int toNode) {
         for (int p = from;; p = static_cast<int>((p + step + size) % size)) {
             part.corners.push_back({member, p, p == from ? fromNode : p == to ? toNode : -1});
             if (p == to) break;
@@ -610,9 +626,11 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     // A shift under a quarter of the section's radius turns its band by at most about 14
     // degrees either way: only larger ones are worth telling apart, pixel by pixel.
     const double radius = std::sqrt(std::abs(loop.loop.area) / kPi);
-    const bool travels = glm::length(shift) < 0.25 * radius || step == glm::ivec2(0) ||
-                         overlapPixels(loop.loop, before.loop, step) >= overlapPixels(loop.loop, before.loop, glm::ivec2(0));
-    const glm::dvec2 candidate = travels ? loop.loop.centroid + (before.view.center - before.loop.centroid) : before.view.center;
+    const bool travels =
+        glm::length(shift) < 0.25 * radius || step == glm::ivec2(0) ||
+        overlapPixels(loop.loop, before.loop, step) >= overlapPixels(loop.loop, before.loop, glm::ivec2(0));
+    const glm::dvec2 candidate =
+        travels ? loop.loop.centroid + (before.view.center - before.loop.centroid) : before.view.center;
     // A followed centre must stay clear of the boundary (by a pixel, or as far as the centroid
     // is), or its rays would crowd one side of the section.
     const bool centroidIn = centroidInside(loop.loop);
@@ -689,8 +707,10 @@ void Reconstruction::closeEnds()
             mLoops.push_back({});
             mLoops.back().push_back(std::move(endLoop));
             const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
-            if (top) tube.members.push_back(added);
-            else tube.members.insert(tube.members.begin(), added);
+            if (top)
+                tube.members.push_back(added);
+            else
+                tube.members.insert(tube.members.begin(), added);
             ++mStats.endContours;
             double wAgain = wEnd;
             end.hasApex = findApex(endPlane, center, direction, 2.0 * kEndInset + 1.0, wAgain, sign);
@@ -790,7 +810,8 @@ void Reconstruction::chooseSlices()
         double radius = 0.0;            // the farthest crossing
     };
     std::vector<glm::dvec2> unit(directions);
-    for (int d = 0; d < directions; ++d) unit[d] = {std::cos(2.0 * kPi * d / directions), std::sin(2.0 * kPi * d / directions)};
+    for (int d = 0; d < directions; ++d)
+        unit[d] = {std::cos(2.0 * kPi * d / directions), std::sin(2.0 * kPi * d / directions)};
     std::vector<std::vector<Profile>> profiles(mLoops.size());
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         profiles[s].resize(mLoops[s].size());
@@ -831,8 +852,9 @@ void Reconstruction::chooseSlices()
                     const glm::dvec2 miss = pj[i] - (pa.points[i] + t * (pb.points[i] - pa.points[i]));
                     worst = std::max(worst, miss.x * miss.x + miss.y * miss.y);
                 }
-                if (!(worst <= coarsest * coarsest)) return 0; // level 0 must split (NaN: a direction
-                                                               // without crossing, too)
+                if (!(worst <= coarsest * coarsest))
+                    return 0; // level 0 must split (NaN: a direction
+                              // without crossing, too)
             }
             for (int level = 0; level < mOptions.levels; ++level)
                 if (worst > radius * sagitta[level] * radius * sagitta[level]) return level;
@@ -879,10 +901,12 @@ void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double re
     std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
     const glm::dvec2 holeCenter = mLoops[s][hl].view.center;
     auto nearestAround = [&](bool holeLoop) {
-        return nearest(static_cast<int>(loops.size()), holeCenter, [&](int k) { return loops[k].centroid; }, [&](int k) {
-            return loops[k].hole() == holeLoop && std::abs(loops[k].area) >= mOptions.minContourArea &&
-                   encloses(loops[k], holeCenter);
-        });
+        return nearest(
+            static_cast<int>(loops.size()), holeCenter, [&](int k) { return loops[k].centroid; },
+            [&](int k) {
+                return loops[k].hole() == holeLoop && std::abs(loops[k].area) >= mOptions.minContourArea &&
+                       encloses(loops[k], holeCenter);
+            });
     };
     const int bestOuter = nearestAround(false), bestHole = nearestAround(true);
     if (bestOuter < 0 || bestHole < 0) return;
@@ -897,8 +921,10 @@ void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double re
     mLoops.back().push_back({std::move(loops[bestHole]), std::move(holeView), std::move(holeProfile)});
     const int plane2 = static_cast<int>(mPositions.size()) - 1;
     for (const auto& [tube, loop] : {std::pair<Tube*, int>{&outer, 0}, std::pair<Tube*, int>{&hole, 1}}) {
-        if (top) tube->members.push_back({plane2, loop});
-        else tube->members.insert(tube->members.begin(), {plane2, loop});
+        if (top)
+            tube->members.push_back({plane2, loop});
+        else
+            tube->members.insert(tube->members.begin(), {plane2, loop});
     }
     mStats.endContours += 2;
 }
@@ -931,7 +957,8 @@ Skeleton Reconstruction::skeleton() const
         // The hub's plane, or the chords' middles' mean: where the saddle nodes got to.
         const std::size_t firstMiddle = junction.cuts.size() + junction.innerCuts.size();
         for (std::size_t node = firstMiddle; node < junction.nodeIndex.size(); ++node)
-            j.crotchW += junction.nodeIndex[node][mPlan.axis] / static_cast<double>(junction.nodeIndex.size() - firstMiddle);
+            j.crotchW +=
+                junction.nodeIndex[node][mPlan.axis] / static_cast<double>(junction.nodeIndex.size() - firstMiddle);
         j.single = segmentOf[junction.single.first][junction.single.second];
         for (const auto& [s, l] : junction.many) j.partners.push_back(segmentOf[s][l]);
         skeleton.junctions.push_back(j);
@@ -943,7 +970,8 @@ Skeleton Reconstruction::skeleton() const
 int Reconstruction::finestUsefulLevel() const
 {
     for (int level = 0; level < mOptions.levels; ++level)
-        if ((static_cast<long long>(mOptions.baseRays) << level) > mStats.longestBoundary) return std::max(level - 1, 0);
+        if ((static_cast<long long>(mOptions.baseRays) << level) > mStats.longestBoundary)
+            return std::max(level - 1, 0);
     return mOptions.levels - 1;
 }
 
@@ -982,7 +1010,8 @@ Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse, 
     std::vector<const RaySet*> groupRays(mTubes.size(), nullptr); // group ids are tube indices
     for (std::size_t s = 0; s < mLoops.size(); ++s)
         for (std::size_t l = 0; l < mLoops[s].size(); ++l)
-            if (mLoops[s][l].group >= 0 && !coarse[s][l].crossings.empty()) groupRays[mLoops[s][l].group] = &coarse[s][l].rays;
+            if (mLoops[s][l].group >= 0 && !coarse[s][l].crossings.empty())
+                groupRays[mLoops[s][l].group] = &coarse[s][l].rays;
     Contours contours(mLoops.size());
     forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
         if (mLoops[s].empty()) return;
@@ -1073,11 +1102,11 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         bool startsTube, endsTube; // the tube's first and last contour (at every level: ends are kept)
         const Contour* contour;
         int slice, loop;
-        std::uint32_t first;  // index of its first vertex
+        std::uint32_t first;   // index of its first vertex
         std::uint32_t apex[2]; // bottom, top cap apex (members that end a tube with a fan)
     };
     std::vector<Member> members;
-    std::vector<std::size_t> tubeFirst(mTubes.size()); // index in `members` of each tube's first
+    std::vector<std::size_t> tubeFirst(mTubes.size());     // index in `members` of each tube's first
     std::vector<std::vector<int>> memberOf(mLoops.size()); // per plane and loop; -1: not tiled
     for (std::size_t s = 0; s < mLoops.size(); ++s) memberOf[s].assign(mLoops[s].size(), -1);
     std::uint32_t vertexCount = 0;
@@ -1092,7 +1121,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             const bool startsTube = k == 0, endsTube = k + 1 == tube.members.size();
             const Contour& c = contours[s][l];
             PIPETILE_ASSERT(!c.crossings.empty() &&
-                                countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) == c.rays.count() &&
+                                countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) ==
+                                    c.rays.count() &&
                                 c.rays.count() == contours[tube.members[0].first][tube.members[0].second].rays.count(),
                             "a contour does not wind once (#F - #B != n), or differs in rays from its tube");
             if (startsTube) result.addedRays += c.rays.count() - rays.count();
@@ -1118,29 +1148,39 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         for (std::size_t k = 0; k < junction.parts.size(); ++k) {
             const auto [ps, pl] = junction.many[k];
             Contour c = castPolygon(junction.parts[k].view, contours[ps][pl].rays);
-            if (countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != c.rays.count()) c.crossings.clear();
+            if (countEdges(c, EdgeType::Forward) - countEdges(c, EdgeType::Backward) != c.rays.count())
+                c.crossings.clear();
             parts[j].push_back(std::move(c));
         }
     });
     // Extras: the vertices on a member's contour edges that its own crossings do not give (cuts,
     // and the parts' crossings on its arcs), by polygon segment and place along it (0 at its
     // first point). Parts' crossings on chords: per junction, by the chord's nodes (lower first).
-    struct Extra { int segment; double param; std::uint32_t id; glm::dvec2 point; };
+    struct Extra {
+        int segment;
+        double param;
+        std::uint32_t id;
+        glm::dvec2 point;
+    };
     std::vector<std::vector<Extra>> extras(members.size());
     using Chord = std::pair<int, int>;
     std::vector<std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>> onChord(mJunctions.size());
     std::vector<std::uint32_t> firstNodeOf(mJunctions.size());
     std::vector<std::vector<std::uint32_t>> partFirst(mJunctions.size());
-    auto memberAt = [&](const std::pair<int, int>& loop) { return static_cast<std::size_t>(memberOf[loop.first][loop.second]); };
+    auto memberAt = [&](const std::pair<int, int>& loop) {
+        return static_cast<std::size_t>(memberOf[loop.first][loop.second]);
+    };
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
         const std::size_t n = junction.cuts.size();
         firstNodeOf[j] = vertexCount;
         for (std::size_t k = 0; k < n; ++k)
-            extras[memberAt(junction.single)].push_back({junction.cuts[k], 0.0, vertexCount + static_cast<std::uint32_t>(k), junction.nodePoints[k]});
+            extras[memberAt(junction.single)].push_back(
+                {junction.cuts[k], 0.0, vertexCount + static_cast<std::uint32_t>(k), junction.nodePoints[k]});
         for (std::size_t k = 0; k < junction.innerCuts.size(); ++k)
-            extras[memberAt(junction.inner)].push_back(
-                {junction.innerCuts[k], 0.0, vertexCount + static_cast<std::uint32_t>(n + k), junction.nodePoints[n + k]});
+            extras[memberAt(junction.inner)].push_back({junction.innerCuts[k], 0.0,
+                                                        vertexCount + static_cast<std::uint32_t>(n + k),
+                                                        junction.nodePoints[n + k]});
         vertexCount += static_cast<std::uint32_t>(junction.nodePoints.size());
         for (const Contour& part : parts[j]) {
             partFirst[j].push_back(vertexCount);
@@ -1155,9 +1195,9 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const Member& m = members[i];
         for (std::size_t j = 0; j < m.contour->crossings.size(); ++j)
             mesh.vertices[m.first + j] = toWorld(m.contour->crossings[j].point, m.slice);
-        if (m.startsTube && m.tube->bottom.fan) mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
-        if (m.endsTube && m.tube->top.fan)
-            mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
+        if (m.startsTube && m.tube->bottom.fan)
+            mesh.vertices[m.apex[0]] = mVolume.indexToWorld(m.tube->bottom.apexIndex);
+        if (m.endsTube && m.tube->top.fan) mesh.vertices[m.apex[1]] = mVolume.indexToWorld(m.tube->top.apexIndex);
     });
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
@@ -1168,20 +1208,25 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             const std::vector<Crossing>& x = parts[j][k].crossings;
             for (std::size_t c = 0; c < x.size(); ++c) {
                 const std::uint32_t id = partFirst[j][k] + static_cast<std::uint32_t>(c);
-                const Junction::Part::Corner &a = corners[x[c].segment], &b = corners[(x[c].segment + 1) % corners.size()];
+                const Junction::Part::Corner &a = corners[x[c].segment],
+                                             &b = corners[(x[c].segment + 1) % corners.size()];
                 const std::pair<int, int> loop = a.member == 1 ? junction.inner : junction.single;
                 const std::vector<glm::dvec2>& polygon = mLoops[loop.first][loop.second].view.polygon;
                 const int size = static_cast<int>(polygon.size());
-                if (a.member >= 0 && a.member == b.member && (b.point == (a.point + 1) % size || a.point == (b.point + 1) % size)) {
+                if (a.member >= 0 && a.member == b.member &&
+                    (b.point == (a.point + 1) % size || a.point == (b.point + 1) % size)) {
                     // On an arc: a segment of that contour's polygon.
                     const int s = b.point == (a.point + 1) % size ? a.point : b.point;
-                    extras[memberAt(loop)].push_back({s, placeOn(polygon[s], polygon[(s + 1) % size], x[c].point), id, x[c].point});
+                    extras[memberAt(loop)].push_back(
+                        {s, placeOn(polygon[s], polygon[(s + 1) % size], x[c].point), id, x[c].point});
                     mesh.vertices[id] = toWorld(x[c].point, loop.first);
                 } else { // on a chord between two nodes
                     const Chord chord{std::min(a.node, b.node), std::max(a.node, b.node)};
-                    const double t = placeOn(junction.nodePoints[chord.first], junction.nodePoints[chord.second], x[c].point);
+                    const double t =
+                        placeOn(junction.nodePoints[chord.first], junction.nodePoints[chord.second], x[c].point);
                     onChord[j][chord].push_back({t, id});
-                    mesh.vertices[id] = mVolume.indexToWorld(glm::mix(junction.nodeIndex[chord.first], junction.nodeIndex[chord.second], t));
+                    mesh.vertices[id] = mVolume.indexToWorld(
+                        glm::mix(junction.nodeIndex[chord.first], junction.nodeIndex[chord.second], t));
                 }
             }
         }
@@ -1202,7 +1247,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const long long segments = static_cast<long long>(polygon.size());
         // Where a crossing lies along its segment: where its ray meets the polygon.
         auto placeOf = [&](const Crossing& c) {
-            const glm::dvec2 onPolygon = contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
+            const glm::dvec2 onPolygon =
+                contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
             return placeOn(polygon[c.segment], polygon[(c.segment + 1) % segments], onPolygon);
         };
         // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
@@ -1222,7 +1268,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         });
         std::vector<std::vector<const Extra*>> after(x.size());
         for (const auto& [at, e] : placed) {
-            std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
+            std::size_t before =
+                std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
             while (before < x.size() && crossingKey[before] == at.first && placeOf(x[before]) < at.second) ++before;
             after[before - 1].push_back(e);
         }
@@ -1287,13 +1334,15 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             std::unique_ptr<ContourTree> rankedLower, rankedUpper;
             if (lower->ambiguousSectors() > 0) {
                 rankedLower = std::make_unique<ContourTree>(
-                    *lowerSide.string, rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
+                    *lowerSide.string,
+                    rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
                 lower = rankedLower.get();
                 bytes += lower->bytes();
             }
             if (upper->ambiguousSectors() > 0) {
                 rankedUpper = std::make_unique<ContourTree>(
-                    *upperSide.string, rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
+                    *upperSide.string,
+                    rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
                 upper = rankedUpper.get();
                 bytes += upper->bytes();
             }
@@ -1303,15 +1352,19 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         const auto first = mesh.vertices.begin();
         const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
         const std::vector<glm::dvec3> a(first + lowerSide.first, first + lowerSide.first + lowerCount);
-        const std::vector<glm::dvec3> b(first + upperSide.first, first + upperSide.first + upperSide.contour->crossings.size());
+        const std::vector<glm::dvec3> b(first + upperSide.first,
+                                        first + upperSide.first + upperSide.contour->crossings.size());
         ToroidalStats stats;
-        std::vector<Triangle> band = mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+        std::vector<Triangle> band =
+            mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
         bytes += stats.bytes;
         // A strip that fans one point over the whole other contour is no manifold (the oblique
         // tube's tiny sections with --tiler optimal, before this).
         return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
     };
-    auto sideOf = [&](std::size_t i) { return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first}; };
+    auto sideOf = [&](std::size_t i) {
+        return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first};
+    };
     // Band-local ids to the mesh's, turned outward.
     auto place = [](std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip) {
         const std::uint32_t lowerCount = static_cast<std::uint32_t>(lower.contour->crossings.size());
@@ -1338,9 +1391,7 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
     // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
     // inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
     // junction gets nothing either: the junction's triangles close it.
-    auto treeOf = [&](std::size_t i) {
-        return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour));
-    };
+    auto treeOf = [&](std::size_t i) { return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour)); };
     auto emitCap = [&](std::size_t self, bool top) {
         const Member& m = members[self];
         const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
@@ -1411,16 +1462,18 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
                 if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
                 const Ring& r = a.member == 1 ? innerRing : ring;
                 const std::size_t size = r.ids.size();
-                const int points = static_cast<int>(
-                    mLoops[(a.member == 1 ? junction.inner : junction.single).first][(a.member == 1 ? junction.inner : junction.single).second]
-                        .view.polygon.size());
+                const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
+                                                          [(a.member == 1 ? junction.inner : junction.single).second]
+                                                              .view.polygon.size());
                 const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
                 if (a.member >= 0 && a.member == b.member && (forward || backward)) {
                     std::size_t end = c + 1;
                     while (corners[end % corners.size()].node < 0) ++end;
                     const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
-                    std::size_t p = static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) - r.ids.begin());
-                    for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to; p = (p + (forward ? 1 : size - 1)) % size)
+                    std::size_t p = static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) -
+                                                             r.ids.begin());
+                    for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to;
+                         p = (p + (forward ? 1 : size - 1)) % size)
                         boundary.push_back(r.ids[p]);
                     c = end;
                     continue;
@@ -1430,7 +1483,8 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
                     if (a.node < b.node)
                         for (const auto& [t, id] : along->second) boundary.push_back(id);
                     else
-                        for (auto e = along->second.rbegin(); e != along->second.rend(); ++e) boundary.push_back(e->second);
+                        for (auto e = along->second.rbegin(); e != along->second.rend(); ++e)
+                            boundary.push_back(e->second);
                 }
                 ++c;
             }
@@ -1442,10 +1496,12 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             // are not all there in their order (a crossing at a cut, placed on the next arc).
             std::vector<std::size_t> at;
             if (!parts[j][k].crossings.empty()) {
-                const std::uint32_t first = partFirst[j][k], count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
+                const std::uint32_t first = partFirst[j][k],
+                                    count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
                 for (std::size_t e = 0; e < boundary.size(); ++e)
                     if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
-                const auto start = std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
+                const auto start =
+                    std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
                 if (start != at.end()) std::rotate(at.begin(), start, at.end());
                 for (std::uint32_t c = 0; c < at.size(); ++c)
                     if (at.size() != count || boundary[at[c]] != first + c) at.clear();
@@ -1483,8 +1539,9 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
                 std::vector<glm::dvec3> lowerPoints, upperPoints;
                 for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
                 for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-                triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
-                                            static_cast<std::uint32_t>(upper.size()));
+                triangles =
+                    withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+                                    static_cast<std::uint32_t>(upper.size()));
                 for (Triangle& t : triangles) {
                     for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
                     if (flip) std::swap(t[1], t[2]);

@@ -26,7 +26,7 @@ enum class State {
     Open,       // temporaries may be written
     Committing, // renaming: left as it is if the process ends now (the next run recovers it)
     Committed,  // every target holds this run's file
-    Abandoned, // a signal ended the run: temporaries and lock files are gone
+    Abandoned,  // a signal ended the run: temporaries and lock files are gone
 };
 
 struct Target {
@@ -36,13 +36,16 @@ struct Target {
     std::string lock;      // .NAME.pipetile-lock: flock'ed by the run that writes NAME
     bool obsolete = false; // removed by the commit (a level of an earlier run with more levels)
     int lockFd = -1;
-    bool written = false;        // the temporary is complete, synced and closed
-    bool hadPrevious = false;    // commit kept the earlier file under `previous`
-    bool movedAside = false;     // ... by renaming it (no hard links on this file system)
-    bool replaced = false;       // commit renamed the temporary onto `path`
+    bool written = false;     // the temporary is complete, synced and closed
+    bool hadPrevious = false; // commit kept the earlier file under `previous`
+    bool movedAside = false;  // ... by renaming it (no hard links on this file system)
+    bool replaced = false;    // commit renamed the temporary onto `path`
 };
 
-std::string inQuotes(const std::string& s) { return "'" + s + "'"; }
+std::string inQuotes(const std::string& s)
+{
+    return "'" + s + "'";
+}
 
 // A sibling of `path` in the same folder (so renames between them are atomic), hidden and named
 // so that it is recognisably pipetile's and tied to exactly one target.
@@ -302,7 +305,8 @@ void OutputSet::Impl::finishInterruptedCommit(const std::vector<RecordEntry>& re
                 continue;
             }
         }
-        const bool done = entry.obsolete ? ::unlink(t.path.c_str()) == 0 : ::rename(t.temporary.c_str(), t.path.c_str()) == 0;
+        const bool done =
+            entry.obsolete ? ::unlink(t.path.c_str()) == 0 : ::rename(t.temporary.c_str(), t.path.c_str()) == 0;
         if (done) recovered.push_back(t.path);
         ::unlink(t.previous.c_str());
         if (fd >= 0) {
@@ -318,8 +322,10 @@ void OutputSet::Impl::announce(bool withRecord)
 {
     const std::string content = withRecord ? holder + commitRecord(targets) : holder;
     for (const Target& t : targets) {
-        if (writeLockFile(t.lockFd, content, withRecord) || !withRecord) continue; // the line only informs: a full disk must not stop the run
-        throw Error(inQuotes(t.path) + ": cannot record the commit in " + inQuotes(t.lock) + " (" + reason(errno) + ")");
+        if (writeLockFile(t.lockFd, content, withRecord) || !withRecord)
+            continue; // the line only informs: a full disk must not stop the run
+        throw Error(inQuotes(t.path) + ": cannot record the commit in " + inQuotes(t.lock) + " (" + reason(errno) +
+                    ")");
     }
 }
 
@@ -342,7 +348,8 @@ void OutputSet::Impl::removeStale()
     for (const Target& t : targets) {
         if (::unlink(t.temporary.c_str()) == 0) staleRemoved.push_back(t.temporary);
         struct stat existing;
-        if (::lstat(t.path.c_str(), &existing) != 0 && errno == ENOENT && ::rename(t.previous.c_str(), t.path.c_str()) == 0)
+        if (::lstat(t.path.c_str(), &existing) != 0 && errno == ENOENT &&
+            ::rename(t.previous.c_str(), t.path.c_str()) == 0)
             recovered.push_back(t.path);
         else if (::unlink(t.previous.c_str()) == 0)
             staleRemoved.push_back(t.previous);
@@ -470,11 +477,13 @@ OutputSet::OutputSet(const std::vector<std::string>& targets, const std::string&
     std::vector<std::string> paths = obsolete;
     paths.insert(paths.end(), targets.begin(), targets.end());
     for (const std::string& path : paths) {
-        if (!seen.insert(path).second) throw Error(inQuotes(path) + " is named twice as an output; give each output its own name");
+        if (!seen.insert(path).second)
+            throw Error(inQuotes(path) + " is named twice as an output; give each output its own name");
         const std::filesystem::path folder = std::filesystem::path(path).parent_path();
         std::error_code ec;
         if (!folder.empty() && !std::filesystem::is_directory(folder, ec))
-            throw Error(inQuotes(path) + ": the folder " + inQuotes(folder.string()) + " does not exist; create it first");
+            throw Error(inQuotes(path) + ": the folder " + inQuotes(folder.string()) +
+                        " does not exist; create it first");
         Target t;
         t.path = path;
         t.temporary = sibling(path, ".pipetile-tmp");
@@ -508,11 +517,11 @@ void OutputSet::write(const std::string& target, const std::function<void(std::o
     int fd = -1;
     {
         std::lock_guard<std::recursive_mutex> guard(registryMutex());
-        if (mImpl->state != State::Open)
-            throw Error(inQuotes(target) + ": not written, the run was interrupted");
+        if (mImpl->state != State::Open) throw Error(inQuotes(target) + ": not written, the run was interrupted");
         t.written = false;
         fd = ::open(t.temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-        if (fd < 0) throw Error(inQuotes(target) + ": cannot create " + inQuotes(t.temporary) + " (" + reason(errno) + ")");
+        if (fd < 0)
+            throw Error(inQuotes(target) + ": cannot create " + inQuotes(t.temporary) + " (" + reason(errno) + ")");
     }
     try {
         writeChecked(fd, target, write);
@@ -529,7 +538,8 @@ void OutputSet::commit()
     std::lock_guard<std::recursive_mutex> guard(registryMutex());
     if (mImpl->state != State::Open) throw Error("outputs not written: the run was interrupted");
     for (const Target& t : mImpl->targets)
-        if (!t.obsolete && !t.written) throw UsageError("OutputSet: " + inQuotes(t.path) + " was not written before commit");
+        if (!t.obsolete && !t.written)
+            throw UsageError("OutputSet: " + inQuotes(t.path) + " was not written before commit");
     // From the record on, a process killed here leaves what the next run needs to finish the commit.
     mImpl->state = State::Committing;
     std::size_t done = 0;
@@ -559,9 +569,15 @@ void OutputSet::commit()
     mImpl->state = State::Committed;
 }
 
-const std::vector<std::string>& OutputSet::staleRemoved() const { return mImpl->staleRemoved; }
+const std::vector<std::string>& OutputSet::staleRemoved() const
+{
+    return mImpl->staleRemoved;
+}
 
-const std::vector<std::string>& OutputSet::recovered() const { return mImpl->recovered; }
+const std::vector<std::string>& OutputSet::recovered() const
+{
+    return mImpl->recovered;
+}
 
 void abandonOutputs()
 {

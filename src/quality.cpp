@@ -88,12 +88,16 @@ int oppositeCorner(const Triangle& t, std::uint32_t a, std::uint32_t b)
     return -1;
 }
 
-bool holds(const Triangle& t, std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
+bool holds(const Triangle& t, std::uint32_t v)
+{
+    return t[0] == v || t[1] == v || t[2] == v;
+}
 
 class NeedleFlipper {
 public:
     NeedleFlipper(TriangleMesh& mesh, const Volume& volume, int axis)
-        : mMesh(mesh), mMaxMove(kMaxMoveVoxels * volume.smallestVoxel())
+        : mMesh(mesh),
+          mMaxMove(kMaxMoveVoxels * volume.smallestVoxel())
     {
         const std::vector<glm::dvec3>& p = mesh.vertices;
         mAspect.reserve(mesh.triangles.size());
@@ -161,7 +165,9 @@ private:
         int count = 0;
         const auto take = [&](std::uint32_t f) {
             const Triangle& t = mMesh.triangles[f];
-            if (!holds(t, a) || !holds(t, b) || std::find(out, out + std::min(count, limit), f) != out + std::min(count, limit)) return;
+            if (!holds(t, a) || !holds(t, b) ||
+                std::find(out, out + std::min(count, limit), f) != out + std::min(count, limit))
+                return;
             if (count < limit) out[count] = f;
             ++count;
         };
@@ -210,17 +216,18 @@ private:
         mAspect[f2] = after2;
         mGained.emplace(d, f1);
         mGained.emplace(c, f2);
-        for (const auto& side : {std::pair{c, a}, std::pair{a, d}, std::pair{d, b}, std::pair{b, c}}) mQueue.push_back(side);
+        for (const auto& side : {std::pair{c, a}, std::pair{a, d}, std::pair{d, b}, std::pair{b, c}})
+            mQueue.push_back(side);
         return true;
     }
 
     TriangleMesh& mMesh;
-    double mMaxMove; // world units
-    std::vector<double> mAspect; // per triangle, kept current
-    std::vector<double> mPlaneW; // per vertex, index-space coordinate along the slicing axis
+    double mMaxMove;                            // world units
+    std::vector<double> mAspect;                // per triangle, kept current
+    std::vector<double> mPlaneW;                // per vertex, index-space coordinate along the slicing axis
     std::vector<std::uint32_t> mFirst, mAround; // per vertex, its triangles before any flip
     std::unordered_multimap<std::uint32_t, std::uint32_t> mGained; // vertex -> triangle it joined by a flip
-    std::deque<std::pair<std::uint32_t, std::uint32_t>> mQueue; // edges to look at, in order: deterministic
+    std::deque<std::pair<std::uint32_t, std::uint32_t>> mQueue;    // edges to look at, in order: deterministic
 };
 
 // Union-find over vertex ids, each set named by its lowest id.

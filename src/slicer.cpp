@@ -18,7 +18,10 @@ namespace {
 
 constexpr int kLeafDim = 8; // openvdb::FloatTree leaf nodes are 8^3
 
-int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+int floorDiv(int a, int b)
+{
+    return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
 
 } // namespace
 
@@ -49,7 +52,10 @@ SlicePlan planSlices(const Volume& volume, const SliceOptions& options)
             const glm::dvec3 step = volume.indexToWorld(unit) - origin;
             const double voxels = static_cast<double>(hi[a]) - lo[a] + 1.0; // in 64 bits: 3e9 voxels apart fit
             const double length = voxels * std::sqrt(step.x * step.x + step.y * step.y + step.z * step.z);
-            if (length > best + 1e-9) { best = length; plan.axis = a; }
+            if (length > best + 1e-9) {
+                best = length;
+                plan.axis = a;
+            }
         }
     } else {
         plan.axis = static_cast<int>(options.axis);
@@ -80,8 +86,10 @@ SlicePlan planSlices(const Volume& volume, const SliceOptions& options)
     std::vector<std::pair<double, double>> occupied; // runs of slabs, padded, increasing in w
     for (const auto& [slab, footprints] : plan.leafFootprints) {
         const double from = slab - pad, to = slab + (kLeafDim - 1) + pad;
-        if (!occupied.empty() && from <= occupied.back().second) occupied.back().second = to;
-        else occupied.emplace_back(from, to);
+        if (!occupied.empty() && from <= occupied.back().second)
+            occupied.back().second = to;
+        else
+            occupied.emplace_back(from, to);
     }
     const long long last = static_cast<long long>(std::floor((static_cast<double>(hi[a]) - lo[a]) / spacing));
     long long next = 0;
@@ -98,11 +106,11 @@ struct SlicePlane::Impl {
     const Volume* volume;
     const SlicePlan* plan;
     double w;
-    int w0;        // voxel plane below (or at) w
-    double frac;   // w - w0, in [0, 1)
-    double sign;   // +1 level set, -1 fog: turns values into the signed field
+    int w0;      // voxel plane below (or at) w
+    double frac; // w - w0, in [0, 1)
+    double sign; // +1 level set, -1 fog: turns values into the signed field
     double iso;
-    int ua, va;    // grid axes of u and v
+    int ua, va; // grid axes of u and v
     // Unregistered: a registered accessor enters a concurrent hash map in the tree on every
     // construction and leaves it on destruction (a plane per slice and level). The grid is never
     // modified while a plane exists, so no cache can go stale.
@@ -119,15 +127,23 @@ struct SlicePlane::Impl {
     // together. Ray casting reads few pixels and does not build it. Pixels outside are read
     // through the accessor.
     std::vector<glm::ivec2> leafOrigins; // (u, v) origins of the leaves the plane reads, sorted (v, u)
-    std::unique_ptr<double[]> image; // every pixel is written: no need to clear it first
+    std::unique_ptr<double[]> image;     // every pixel is written: no need to clear it first
     glm::ivec2 imageMin{0};
     int imageWidth = 0, imageHeight = 0;
 
     Impl(const Volume& vol, const SlicePlan& p, double wPlane)
-        : volume(&vol), plan(&p), w(wPlane), w0(static_cast<int>(std::floor(wPlane))), frac(wPlane - std::floor(wPlane)),
-          sign(vol.volumeClass() == VolumeClass::LevelSet ? 1.0 : -1.0), iso(vol.iso()), ua((p.axis + 1) % 3),
-          va((p.axis + 2) % 3), accessor(gridOf(vol).getConstUnsafeAccessor())
-    {}
+        : volume(&vol),
+          plan(&p),
+          w(wPlane),
+          w0(static_cast<int>(std::floor(wPlane))),
+          frac(wPlane - std::floor(wPlane)),
+          sign(vol.volumeClass() == VolumeClass::LevelSet ? 1.0 : -1.0),
+          iso(vol.iso()),
+          ua((p.axis + 1) % 3),
+          va((p.axis + 2) % 3),
+          accessor(gridOf(vol).getConstUnsafeAccessor())
+    {
+    }
 
     void readLeaves()
     {
@@ -144,14 +160,18 @@ struct SlicePlane::Impl {
         leafOrigins.erase(std::unique(leafOrigins.begin(), leafOrigins.end()), leafOrigins.end());
         if (leafOrigins.empty()) return;
         glm::ivec2 lo = leafOrigins.front(), hi = lo;
-        for (const glm::ivec2& o : leafOrigins) { lo = glm::min(lo, o); hi = glm::max(hi, o); }
+        for (const glm::ivec2& o : leafOrigins) {
+            lo = glm::min(lo, o);
+            hi = glm::max(hi, o);
+        }
         lo -= kLeafDim;
         hi += 2 * kLeafDim;
         // In 64 bits: leaves 2^31 voxels apart are possible.
         const double pixels = (static_cast<double>(hi.x) - lo.x) * (static_cast<double>(hi.y) - lo.y);
         // Leaves scattered far apart (two small objects) would make a huge, empty image: read
         // those through the accessor.
-        if (pixels > std::max(double(1 << 20), 16.0 * kLeafDim * kLeafDim * static_cast<double>(leafOrigins.size()))) return;
+        if (pixels > std::max(double(1 << 20), 16.0 * kLeafDim * kLeafDim * static_cast<double>(leafOrigins.size())))
+            return;
         imageMin = lo;
         imageWidth = hi.x - lo.x;
         imageHeight = hi.y - lo.y;
@@ -213,9 +233,10 @@ struct SlicePlane::Impl {
             for (int x = 1; x + 1 < imageWidth; ++x) {
                 const glm::ivec2 a(x, y);
                 if (!inside(0, a) || inside(1, a)) continue; // inside below, outside above
-                for (const glm::ivec2 step : {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
+                for (const glm::ivec2 step :
+                     {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
                     const glm::ivec2 b = a + step;
-                    if (inside(0, b) || !inside(1, b)) continue;          // outside below, inside above
+                    if (inside(0, b) || !inside(1, b)) continue;            // outside below, inside above
                     if (image[at(a)] < 0.0 && image[at(b)] < 0.0) continue; // the plane shows it already
                     if (!contactJoins(levelSet, inside, a, b)) continue;
                     bridged.push_back(at(a));
@@ -241,11 +262,17 @@ struct SlicePlane::Impl {
         const int x = u - imageMin.x, y = v - imageMin.y;
         if (x >= 0 && y >= 0 && x + 1 < imageWidth && y + 1 < imageHeight) {
             const double* row = &image[static_cast<std::size_t>(y) * imageWidth + x];
-            f[0] = row[0]; f[1] = row[1]; f[2] = row[imageWidth]; f[3] = row[imageWidth + 1];
+            f[0] = row[0];
+            f[1] = row[1];
+            f[2] = row[imageWidth];
+            f[3] = row[imageWidth + 1];
             return;
         }
         if ((u & (kLeafDim - 1)) == kLeafDim - 1 || (v & (kLeafDim - 1)) == kLeafDim - 1) {
-            f[0] = pixel(u, v); f[1] = pixel(u + 1, v); f[2] = pixel(u, v + 1); f[3] = pixel(u + 1, v + 1);
+            f[0] = pixel(u, v);
+            f[1] = pixel(u + 1, v);
+            f[2] = pixel(u, v + 1);
+            f[3] = pixel(u + 1, v + 1);
             return;
         }
         // All four pixels lie in one leaf per voxel plane: read its buffer directly, at
@@ -260,8 +287,10 @@ struct SlicePlane::Impl {
             if (const openvdb::FloatTree::LeafNodeType* leaf = accessor.probeConstLeaf(c)) {
                 const float* at = leaf->buffer().data() + openvdb::FloatTree::LeafNodeType::coordToOffset(c);
                 const int du = kStride[ua], dv = kStride[va];
-                g[0] = signedValue(at[0]); g[1] = signedValue(at[du]);
-                g[2] = signedValue(at[dv]); g[3] = signedValue(at[du + dv]);
+                g[0] = signedValue(at[0]);
+                g[1] = signedValue(at[du]);
+                g[2] = signedValue(at[dv]);
+                g[3] = signedValue(at[du + dv]);
             } else {
                 g[0] = g[1] = g[2] = g[3] = signedValue(accessor.getValue(c)); // one tile holds all four
             }
@@ -281,15 +310,25 @@ struct SlicePlane::Impl {
 
 SlicePlane::SlicePlane(const Volume& volume, const SlicePlan& plan, double w)
     : mImpl(std::make_unique<Impl>(volume, plan, w))
-{}
+{
+}
 SlicePlane::~SlicePlane() = default;
 SlicePlane::SlicePlane(SlicePlane&&) noexcept = default;
 SlicePlane& SlicePlane::operator=(SlicePlane&&) noexcept = default;
 
-double SlicePlane::w() const { return mImpl->w; }
-const SlicePlan& SlicePlane::plan() const { return *mImpl->plan; }
+double SlicePlane::w() const
+{
+    return mImpl->w;
+}
+const SlicePlan& SlicePlane::plan() const
+{
+    return *mImpl->plan;
+}
 
-double SlicePlane::value(int u, int v) const { return mImpl->pixel(u, v); }
+double SlicePlane::value(int u, int v) const
+{
+    return mImpl->pixel(u, v);
+}
 
 bool SlicePlane::inside(int u, int v) const
 {
@@ -318,7 +357,10 @@ double SlicePlane::sample(const glm::dvec2& uv) const
     return (1.0 - t) * (f[0] + s * (f[1] - f[0])) + t * (f[2] + s * (f[3] - f[2]));
 }
 
-void SlicePlane::cell(int u, int v, double values[4]) const { mImpl->readCell(u, v, values); }
+void SlicePlane::cell(int u, int v, double values[4]) const
+{
+    mImpl->readCell(u, v, values);
+}
 
 double SlicePlane::sampleAt(const glm::dvec2& uv, double w) const
 {

@@ -4,13 +4,14 @@
 #include <pipetile/tiler.h>
 #include <pipetile/error.h>
 
-
 namespace pipetile {
 
 std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b)
 {
-    const std::uint32_t m = static_cast<std::uint32_t>(a.keys().size()), n = static_cast<std::uint32_t>(b.keys().size());
-    const std::uint32_t sa = static_cast<std::uint32_t>(a.startCrossing()), sb = static_cast<std::uint32_t>(b.startCrossing());
+    const std::uint32_t m = static_cast<std::uint32_t>(a.keys().size()),
+                        n = static_cast<std::uint32_t>(b.keys().size());
+    const std::uint32_t sa = static_cast<std::uint32_t>(a.startCrossing()),
+                        sb = static_cast<std::uint32_t>(b.startCrossing());
     // Past the last crossing the traversal is back at F_0: the key of the closing vertex.
     const TraversalKey end{a.rays(), 3, 0, 0};
     auto keyA = [&](std::uint32_t i) { return i == m ? end : a.keys()[(sa + i) % m]; };

@@ -33,8 +33,7 @@ void checkContour(const std::vector<glm::dvec3>& points, const char* tiler, cons
     for (std::size_t i = 0; i < points.size(); ++i) {
         const glm::dvec3& p = points[i];
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            throw Error(std::string(tiler) + ": point " + std::to_string(i) + " of contour " + name +
-                        " is not finite");
+            throw Error(std::string(tiler) + ": point " + std::to_string(i) + " of contour " + name + " is not finite");
     }
 }
 
@@ -70,7 +69,8 @@ public:
     };
 
     MinimalAreaSurface(const std::vector<glm::dvec3>& x, const std::vector<glm::dvec3>& y)
-        : mP(static_cast<std::uint32_t>(x.size())), mQ(static_cast<std::uint32_t>(y.size()))
+        : mP(static_cast<std::uint32_t>(x.size())),
+          mQ(static_cast<std::uint32_t>(y.size()))
     {
         // Unrolled copies (x < 2p, y <= q) so the inner loops index without wrapping.
         mX.reserve(2 * mP);
@@ -155,7 +155,8 @@ private:
             // The row's triangle areas first: independent of each other, so they pipeline, and
             // the scan below only adds and compares.
             for (std::uint32_t x = begin; x < end; ++x) areaX[x - s] = doubleArea(mX[x], mX[x + 1], mY[y]);
-            if (y == 0) cost[0] = 0.0;
+            if (y == 0)
+                cost[0] = 0.0;
             else
                 for (std::uint32_t x = begin; x <= prevEnd; ++x) cost[x - s] += doubleArea(mX[x], mY[y - 1], mY[y]);
             for (std::uint32_t x = prevEnd + 1; x <= end; ++x) cost[x - s] = unreachable;
@@ -213,7 +214,7 @@ private:
     std::vector<Path> mStack;           // one path per recursion depth of bisect
     Path mBest;
     double mBestCost = std::numeric_limits<double>::infinity();
-    std::size_t mKept = 0;              // bytes of the two outer paths of the bisection
+    std::size_t mKept = 0; // bytes of the two outer paths of the bisection
 };
 
 } // namespace
@@ -238,12 +239,16 @@ std::vector<Triangle> tileOptimal(const std::vector<glm::dvec3>& a, const std::v
     std::uint32_t x = path.start;
     for (std::uint32_t y = 0; y <= q; ++y) {
         for (; x < path.right[y]; ++x) {
-            if (alongA) band.push_back({wrapX(x), wrapX(x + 1), m + wrapY(y)}); // advance A
-            else band.push_back({wrapY(y), m + wrapX(x + 1), m + wrapX(x)});    // advance B
+            if (alongA)
+                band.push_back({wrapX(x), wrapX(x + 1), m + wrapY(y)}); // advance A
+            else
+                band.push_back({wrapY(y), m + wrapX(x + 1), m + wrapX(x)}); // advance B
         }
         if (y == q) break;
-        if (alongA) band.push_back({wrapX(x), m + wrapY(y + 1), m + wrapY(y)}); // advance B
-        else band.push_back({wrapY(y), wrapY(y + 1), m + wrapX(x)});            // advance A
+        if (alongA)
+            band.push_back({wrapX(x), m + wrapY(y + 1), m + wrapY(y)}); // advance B
+        else
+            band.push_back({wrapY(y), wrapY(y + 1), m + wrapX(x)}); // advance A
     }
     PIPETILE_ASSERT(band.size() == static_cast<std::size_t>(m) + n, "an acceptable surface has m + n triangles");
     if (stats) stats->bytes = surface.bytes() + band.capacity() * sizeof(Triangle);
@@ -297,24 +302,32 @@ std::vector<Triangle> withoutFullFans(const std::vector<Triangle>& strip, std::u
         steps[(start + length - 1) % count] = !kind;
         steps[(start + length) % count] = kind;
     }
-    if (std::equal(steps.begin(), steps.end(), strip.begin(), [&](bool step, const Triangle& t) {
-            return step == ((t[0] < m) + (t[1] < m) + (t[2] < m) == 2);
-        }))
+    if (std::equal(steps.begin(), steps.end(), strip.begin(),
+                   [&](bool step, const Triangle& t) { return step == ((t[0] < m) + (t[1] < m) + (t[2] < m) == 2); }))
         return strip;
     // Rebuild from where the first triangle starts: an A-step is {a_i, a_i+1, b_j}, a B-step
     // {a_i, b_j+1, b_j}.
     std::uint32_t as[2] = {0, 0}, bs[2] = {0, 0}, na = 0, nb = 0;
     for (std::uint32_t v : strip.front()) {
-        if (v < m) as[na++] = v;
-        else bs[nb++] = v - m;
+        if (v < m)
+            as[na++] = v;
+        else
+            bs[nb++] = v - m;
     }
     std::uint32_t i = as[0], j = bs[0];
-    if (na == 2) i = as[1] == (as[0] + 1) % m ? as[0] : as[1];
-    else j = bs[1] == (bs[0] + 1) % n ? bs[0] : bs[1];
+    if (na == 2)
+        i = as[1] == (as[0] + 1) % m ? as[0] : as[1];
+    else
+        j = bs[1] == (bs[0] + 1) % n ? bs[0] : bs[1];
     std::vector<Triangle> result;
     for (bool stepA : steps) {
-        if (stepA) { result.push_back({i, (i + 1) % m, m + j}); i = (i + 1) % m; }
-        else { result.push_back({i, m + (j + 1) % n, m + j}); j = (j + 1) % n; }
+        if (stepA) {
+            result.push_back({i, (i + 1) % m, m + j});
+            i = (i + 1) % m;
+        } else {
+            result.push_back({i, m + (j + 1) % n, m + j});
+            j = (j + 1) % n;
+        }
     }
     return result;
 }

@@ -285,7 +285,8 @@ public:
             if (node.count > 0) {
                 for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
                     const Triangle& t = mMesh->triangles[mOrder[k]];
-                    const glm::dvec3 q = closestOnTriangle(p, mMesh->vertices[t[0]], mMesh->vertices[t[1]], mMesh->vertices[t[2]]);
+                    const glm::dvec3 q =
+                        closestOnTriangle(p, mMesh->vertices[t[0]], mMesh->vertices[t[1]], mMesh->vertices[t[2]]);
                     best2 = std::min(best2, glm::dot(p - q, p - q));
                 }
                 continue;
@@ -359,9 +360,11 @@ DistanceStats distancesTo(const TriangleBvh& target, const SurfaceSamples& sampl
     std::vector<double> d(samples.points.size());
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
     arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, d.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
-            for (std::size_t i = r.begin(); i < r.end(); ++i) d[i] = target.distance(samples.points[i]);
-        });
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, d.size(), 256),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                              for (std::size_t i = r.begin(); i < r.end(); ++i)
+                                  d[i] = target.distance(samples.points[i]);
+                          });
     });
     DistanceStats stats;
     double weight = 0.0, sum = 0.0, sum2 = 0.0;
@@ -380,7 +383,10 @@ DistanceStats distancesTo(const TriangleBvh& target, const SurfaceSamples& sampl
     return stats;
 }
 
-double totalWeight(const SurfaceSamples& s) { return std::accumulate(s.weights.begin(), s.weights.end(), 0.0); }
+double totalWeight(const SurfaceSamples& s)
+{
+    return std::accumulate(s.weights.begin(), s.weights.end(), 0.0);
+}
 
 } // namespace
 
@@ -414,8 +420,14 @@ Validator::Validator(const Volume& volume, const ValidationOptions& options) : m
 
 Validator::~Validator() = default;
 
-const TriangleMesh& Validator::reference() const { return mImpl->reference; }
-double Validator::referenceSeconds() const { return mImpl->referenceSeconds; }
+const TriangleMesh& Validator::reference() const
+{
+    return mImpl->reference;
+}
+double Validator::referenceSeconds() const
+{
+    return mImpl->referenceSeconds;
+}
 
 Validation Validator::validate(const TriangleMesh& mesh) const
 {
@@ -445,8 +457,9 @@ Validation Validator::validate(const TriangleMesh& mesh) const
     v.symmetric.samples = v.meshToReference.samples + v.referenceToMesh.samples;
     if (wa + wb > 0.0) {
         v.symmetric.mean = (wa * v.meshToReference.mean + wb * v.referenceToMesh.mean) / (wa + wb);
-        v.symmetric.rms = std::sqrt((wa * v.meshToReference.rms * v.meshToReference.rms +
-                                     wb * v.referenceToMesh.rms * v.referenceToMesh.rms) / (wa + wb));
+        v.symmetric.rms = std::sqrt(
+            (wa * v.meshToReference.rms * v.meshToReference.rms + wb * v.referenceToMesh.rms * v.referenceToMesh.rms) /
+            (wa + wb));
     }
     if (volume.volumeClass() == VolumeClass::LevelSet) {
         v.hasLevelSet = true;
@@ -454,16 +467,17 @@ Validation Validator::validate(const TriangleMesh& mesh) const
         std::vector<double> phi(samples.points.size());
         tbb::task_arena arena(mImpl->options.threads > 0 ? mImpl->options.threads : tbb::task_arena::automatic);
         arena.execute([&] {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, phi.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-                // The sampler keeps a reference to the accessor: it must outlive the sampler.
-                const openvdb::FloatGrid::ConstAccessor accessor = gridOf(volume).getConstAccessor();
-                const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler> sampler(
-                    accessor, gridOf(volume).transform());
-                for (std::size_t i = r.begin(); i < r.end(); ++i) {
-                    const glm::dvec3& p = samples.points[i];
-                    phi[i] = std::abs(sampler.wsSample(openvdb::Vec3d(p.x, p.y, p.z)) - volume.iso());
-                }
-            });
+            tbb::parallel_for(
+                tbb::blocked_range<std::size_t>(0, phi.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+                    // The sampler keeps a reference to the accessor: it must outlive the sampler.
+                    const openvdb::FloatGrid::ConstAccessor accessor = gridOf(volume).getConstAccessor();
+                    const openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler>
+                        sampler(accessor, gridOf(volume).transform());
+                    for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                        const glm::dvec3& p = samples.points[i];
+                        phi[i] = std::abs(sampler.wsSample(openvdb::Vec3d(p.x, p.y, p.z)) - volume.iso());
+                    }
+                });
         });
         double weight = 0.0, sum = 0.0, sum2 = 0.0;
         for (std::size_t i = 0; i < samples.points.size(); ++i) {

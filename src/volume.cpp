@@ -33,7 +33,10 @@ void initializeOpenVdb()
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-std::string inQuotes(const std::string& s) { return "'" + s + "'"; }
+std::string inQuotes(const std::string& s)
+{
+    return "'" + s + "'";
+}
 
 std::string formatValue(double v)
 {
@@ -78,10 +81,8 @@ void checkReadable(const std::string& path)
     initializeOpenVdb();
     std::error_code ec;
     const std::filesystem::file_status status = std::filesystem::status(path, ec);
-    if (!std::filesystem::exists(status))
-        throw Error(inQuotes(path) + ": no such file; check the path");
-    if (std::filesystem::is_directory(status))
-        throw Error(inQuotes(path) + ": is a directory, not a .vdb file");
+    if (!std::filesystem::exists(status)) throw Error(inQuotes(path) + ": no such file; check the path");
+    if (std::filesystem::is_directory(status)) throw Error(inQuotes(path) + ": is a directory, not a .vdb file");
     // OpenVDB seeks in the file and pipetile opens it twice (grid list, then voxels): a pipe would
     // be half consumed by the first reader, and the second would wait forever for a writer.
     if (!std::filesystem::is_regular_file(status))
@@ -167,7 +168,9 @@ public:
 protected:
     pos_type seekoff(off_type offset, std::ios_base::seekdir dir, std::ios_base::openmode) override
     {
-        const off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback();
+        const off_type base = dir == std::ios_base::beg   ? 0
+                              : dir == std::ios_base::cur ? gptr() - eback()
+                                                          : egptr() - eback();
         return seekpos(pos_type(base + offset), std::ios_base::in);
     }
     pos_type seekpos(pos_type position, std::ios_base::openmode) override
@@ -244,8 +247,10 @@ openvdb::FloatGrid::Ptr readChosenGridAtOnce(const std::string& path, const std:
         const openvdb::GridBase* first = nullptr;
         for (const openvdb::GridBase::Ptr& grid : *file.grids) {
             if (grid->valueType() != "float") continue;
-            if (!first) first = grid.get();
-            else if (grid->getName() < first->getName()) return nullptr;
+            if (!first)
+                first = grid.get();
+            else if (grid->getName() < first->getName())
+                return nullptr;
         }
         if (!first) return nullptr;
         name = first->getName();
@@ -268,7 +273,8 @@ openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m, const std::string
 {
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 4; ++r)
-            if (!std::isfinite(m[c][r])) throw UsageError(where + ": the index-to-world matrix holds a non-finite value");
+            if (!std::isfinite(m[c][r]))
+                throw UsageError(where + ": the index-to-world matrix holds a non-finite value");
     if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
         throw UsageError(where + ": the index-to-world matrix's last row must be (0, 0, 0, 1), world = M (i, j, k, 1); "
                                  "a matrix for row vectors, as OpenVDB's, must be transposed");
@@ -276,7 +282,8 @@ openvdb::math::Transform::Ptr transformOf(const glm::dmat4& m, const std::string
     for (int r = 0; r < 4; ++r)
         for (int c = 0; c < 4; ++c) rows(r, c) = m[r][c];
     const double det = rows.getMat3().det();
-    if (!(std::abs(det) > 0.0)) throw UsageError(where + ": the index-to-world matrix is singular (its voxels have no volume)");
+    if (!(std::abs(det) > 0.0))
+        throw UsageError(where + ": the index-to-world matrix is singular (its voxels have no volume)");
     return openvdb::math::Transform::createLinearTransform(rows);
 }
 
@@ -337,7 +344,9 @@ double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
 long long countInside(const openvdb::FloatGrid& grid, VolumeClass volumeClass, double iso)
 {
     long long inside = 0;
-    forEachActiveVoxel(grid, [&](float value) { inside += (volumeClass == VolumeClass::LevelSet ? value < iso : value > iso) ? 1 : 0; });
+    forEachActiveVoxel(grid, [&](float value) {
+        inside += (volumeClass == VolumeClass::LevelSet ? value < iso : value > iso) ? 1 : 0;
+    });
     return inside;
 }
 
@@ -348,15 +357,42 @@ const char* toString(VolumeClass volumeClass)
     return volumeClass == VolumeClass::LevelSet ? "level set" : "fog volume";
 }
 
-const std::string& Volume::source() const { return mImpl->source; }
-const std::string& Volume::gridName() const { return mImpl->gridName; }
-VolumeClass Volume::volumeClass() const { return mImpl->volumeClass; }
-double Volume::iso() const { return mImpl->iso; }
-double Volume::background() const { return mImpl->grid->background(); }
-double Volume::minValue() const { return mImpl->minValue; }
-double Volume::maxValue() const { return mImpl->maxValue; }
-long long Volume::insideVoxels() const { return mImpl->insideVoxels; }
-long long Volume::hotVoxels() const { return mImpl->hotVoxels; }
+const std::string& Volume::source() const
+{
+    return mImpl->source;
+}
+const std::string& Volume::gridName() const
+{
+    return mImpl->gridName;
+}
+VolumeClass Volume::volumeClass() const
+{
+    return mImpl->volumeClass;
+}
+double Volume::iso() const
+{
+    return mImpl->iso;
+}
+double Volume::background() const
+{
+    return mImpl->grid->background();
+}
+double Volume::minValue() const
+{
+    return mImpl->minValue;
+}
+double Volume::maxValue() const
+{
+    return mImpl->maxValue;
+}
+long long Volume::insideVoxels() const
+{
+    return mImpl->insideVoxels;
+}
+long long Volume::hotVoxels() const
+{
+    return mImpl->hotVoxels;
+}
 
 glm::dvec3 Volume::voxelSize() const
 {
@@ -423,7 +459,8 @@ glm::dvec3 Volume::fieldGradient(const glm::dvec3& world) const
         openvdb::Vec3d step(0.0);
         step[axis] = kStep;
         gradient[axis] = (openvdb::tools::BoxSampler::sample(accessor, index + step) -
-                          openvdb::tools::BoxSampler::sample(accessor, index - step)) / (2.0 * kStep);
+                          openvdb::tools::BoxSampler::sample(accessor, index - step)) /
+                         (2.0 * kStep);
     }
     // The signed field is value - iso for level sets and iso - value for fog volumes.
     if (mImpl->volumeClass == VolumeClass::Fog) gradient = -gradient;
@@ -431,7 +468,10 @@ glm::dvec3 Volume::fieldGradient(const glm::dvec3& world) const
     return {g.x(), g.y(), g.z()};
 }
 
-std::vector<GridSummary> listGrids(const std::string& path) { return summarizeGrids(*openFile(path), path); }
+std::vector<GridSummary> listGrids(const std::string& path)
+{
+    return summarizeGrids(*openFile(path), path);
+}
 
 Volume readVolume(const std::string& path, const VolumeOptions& options)
 {
@@ -446,7 +486,8 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
     std::string name = options.gridName;
     if (name.empty()) {
         // The first float grid, whatever its name: pyopenvdb and others write grids named ''.
-        const auto first = std::find_if(grids.begin(), grids.end(), [](const GridSummary& g) { return g.valueType == "float"; });
+        const auto first =
+            std::find_if(grids.begin(), grids.end(), [](const GridSummary& g) { return g.valueType == "float"; });
         if (first == grids.end())
             throw Error(inQuotes(path) + ": holds no scalar float grid (grids: " + listNames(grids) +
                         "); pipetile meshes float level sets and fog volumes");
@@ -519,7 +560,8 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
         lo = std::min(lo, v);
         hi = std::max(hi, v);
     });
-    if (nonFinite > 0 || !std::isfinite(background)) throw nonFiniteError(where, nonFinite, std::isfinite(background), "grid");
+    if (nonFinite > 0 || !std::isfinite(background))
+        throw nonFiniteError(where, nonFinite, std::isfinite(background), "grid");
 
     auto impl = std::make_shared<Volume::Impl>();
     impl->grid = grid;
@@ -532,9 +574,12 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     // Class: the grid's own metadata decides; an unclassified grid whose background is positive
     // and whose values go negative reads as a signed distance field.
     const openvdb::GridClass gc = grid->getGridClass();
-    if (gc == openvdb::GRID_LEVEL_SET) impl->volumeClass = VolumeClass::LevelSet;
-    else if (gc == openvdb::GRID_FOG_VOLUME) impl->volumeClass = VolumeClass::Fog;
-    else impl->volumeClass = (background > 0.0 && lo < 0.0) ? VolumeClass::LevelSet : VolumeClass::Fog;
+    if (gc == openvdb::GRID_LEVEL_SET)
+        impl->volumeClass = VolumeClass::LevelSet;
+    else if (gc == openvdb::GRID_FOG_VOLUME)
+        impl->volumeClass = VolumeClass::Fog;
+    else
+        impl->volumeClass = (background > 0.0 && lo < 0.0) ? VolumeClass::LevelSet : VolumeClass::Fog;
 
     if (options.iso) {
         if (!std::isfinite(*options.iso)) throw UsageError(where + ": the isovalue must be a finite number");
@@ -553,7 +598,7 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     const bool backgroundInside = impl->volumeClass == VolumeClass::LevelSet ? background < iso : background > iso;
     if (backgroundInside)
         throw Error(where + ": the background value " + formatValue(background) + " lies inside the surface at iso " +
-                    formatValue(iso) + ", so the object is unbounded; check the grid class (" +
+                        formatValue(iso) + ", so the object is unbounded; check the grid class (" +
                         toString(impl->volumeClass) + ") or choose another isovalue",
                     {Setting::Iso});
     return Volume(impl);
@@ -577,13 +622,17 @@ Volume volumeFromDense(const DenseVolume& dense, const VolumeOptions& options, c
     bool first = true;
     for (std::size_t n = 0; n < count; ++n) {
         const float v = dense.values[n];
-        if (!std::isfinite(v)) { ++nonFinite; continue; }
+        if (!std::isfinite(v)) {
+            ++nonFinite;
+            continue;
+        }
         if (first || (levelSet ? v > background : v < background)) background = v;
         first = false;
     }
     if (nonFinite > 0) throw nonFiniteError(where, nonFinite, true, "array");
 
-    const openvdb::CoordBBox box(openvdb::Coord(0), openvdb::Coord(dense.dims.x - 1, dense.dims.y - 1, dense.dims.z - 1));
+    const openvdb::CoordBBox box(openvdb::Coord(0),
+                                 openvdb::Coord(dense.dims.x - 1, dense.dims.y - 1, dense.dims.z - 1));
     // LayoutZYX: z varies fastest, numpy's C order for array[x, y, z]. copyFromDense only reads.
     const openvdb::tools::Dense<float, openvdb::tools::LayoutZYX> block(box, const_cast<float*>(dense.values));
     openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(background);
@@ -599,7 +648,8 @@ void writeVolume(const Volume& volume, const std::string& path)
     initializeOpenVdb();
     OutputSet outputs({path});
     // Through a stream (io::File writes to a file of its own, unchecked): io::File reads it back.
-    outputs.write(path, [&](std::ostream& out) { openvdb::io::Stream(out).write(openvdb::GridCPtrVec{volume.impl().grid}); });
+    outputs.write(path,
+                  [&](std::ostream& out) { openvdb::io::Stream(out).write(openvdb::GridCPtrVec{volume.impl().grid}); });
     outputs.commit();
 }
 

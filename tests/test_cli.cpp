@@ -67,7 +67,8 @@ nlohmann::json meshAndCheck(const TempDir& dir, const std::string& input, const 
         const TriangleMesh mesh = readMesh(level["file"].get<std::string>());
         EXPECT_EQ(mesh.vertices.size(), level["vertices"].get<std::size_t>());
         EXPECT_EQ(mesh.triangles.size(), level["triangles"].get<std::size_t>());
-        EXPECT_EQ(static_cast<long long>(mesh.triangles.size()), 2 * (static_cast<long long>(mesh.vertices.size()) - expectedEuler));
+        EXPECT_EQ(static_cast<long long>(mesh.triangles.size()),
+                  2 * (static_cast<long long>(mesh.vertices.size()) - expectedEuler));
         const Topology topo = checkTopology(mesh);
         EXPECT_TRUE(topo.closed() && topo.manifold() && topo.oriented() && topo.outward())
             << topo.boundaryEdges << " boundary, " << topo.nonManifoldEdges << " non-manifold, "
@@ -200,7 +201,8 @@ TEST(Cli, ValidatesAMeshFromVdbTool)
     // OBJ text keeps 6 significant digits, ~1e-4 voxel here). Its faces face inward.
     TempDir dir;
     ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
-    const std::string command = "vdb_tool -read '" + dir.path("s.vdb") + "' -ls2mesh -write '" + dir.path("vt.obj") + "' > /dev/null";
+    const std::string command =
+        "vdb_tool -read '" + dir.path("s.vdb") + "' -ls2mesh -write '" + dir.path("vt.obj") + "' > /dev/null";
     if (std::system(command.c_str()) != 0) GTEST_SKIP() << "vdb_tool (package libopenvdb-tools) is not installed";
     const test::CliResult r = runCli("validate '" + dir.path("s.vdb") + "' '" + dir.path("vt.obj") + "' --report '" +
                                      dir.path("r.json") + "' --error-colors '" + dir.path("c.ply") + "'");
@@ -218,8 +220,8 @@ TEST(Cli, MeshValidateAddsAValidationBlockToEveryLevel)
 {
     TempDir dir;
     ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
-    const test::CliResult r = runCli("mesh '" + dir.path("s.vdb") + "' -o '" + dir.path("m.obj") + "' --validate --report '" +
-                                     dir.path("r.json") + "'");
+    const test::CliResult r = runCli("mesh '" + dir.path("s.vdb") + "' -o '" + dir.path("m.obj") +
+                                     "' --validate --report '" + dir.path("r.json") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("hausdorff"), std::string::npos);
     const nlohmann::json j = readJson(dir.path("r.json"));
@@ -246,7 +248,8 @@ void expectRefusal(const TempDir& dir, const std::string& input, const std::stri
     const test::CliResult r = runCli("mesh '" + input + "' -o '" + dir.path("out.ply") + "' --report '" +
                                      dir.path("out.json") + "' " + extra);
     EXPECT_EQ(r.exitCode, exitCode) << r.err;
-    for (const std::string& part : messageParts) EXPECT_NE(r.err.find(part), std::string::npos) << part << " in: " << r.err;
+    for (const std::string& part : messageParts)
+        EXPECT_NE(r.err.find(part), std::string::npos) << part << " in: " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
     EXPECT_EQ(dir.files(), before); // nothing created, nothing overwritten
 }
@@ -315,7 +318,8 @@ namespace {
 const std::vector<glm::dvec3> kSharingAnEdge = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}};
 const std::vector<std::vector<long long>> kSharingAnEdgeFaces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
                                                                  {0, 4, 1}, {0, 1, 5}, {0, 5, 4}, {1, 4, 5}};
-const std::vector<glm::dvec3> kSharingAVertex = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
+const std::vector<glm::dvec3> kSharingAVertex = {{0, 0, 0},  {1, 0, 0},  {0, 1, 0}, {0, 0, 1},
+                                                 {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
 const std::vector<std::vector<long long>> kSharingAVertexFaces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
                                                                   {0, 4, 5}, {0, 6, 4}, {0, 5, 6}, {4, 6, 5}};
 
@@ -360,7 +364,8 @@ TEST(Cli, ValidateRefusesNonFiniteVerticesAndBadIndices)
     std::vector<std::vector<long long>> bad = faces;
     bad[3][2] = 4;
     test::writeMeshFile(dir.path("past.ply"), test::MeshFile::PlyAscii, tetra, bad);
-    expectValidateRefusal(dir, volume, dir.path("past.ply"), {"face 3 (line 17) refers to vertex 4", "numbered 0 to 3"});
+    expectValidateRefusal(dir, volume, dir.path("past.ply"),
+                          {"face 3 (line 17) refers to vertex 4", "numbered 0 to 3"});
     bad[3][2] = -1;
     test::writeMeshFile(dir.path("negative.off"), test::MeshFile::Off, tetra, bad);
     expectValidateRefusal(dir, volume, dir.path("negative.off"), {"face 3 (line 10) refers to vertex -1"});
@@ -386,10 +391,12 @@ TEST(Cli, ValidateReportsNonManifoldEdgesAndVertices)
     const std::vector<Case> cases = {
         {"edge.off", test::MeshFile::Off, kSharingAnEdge, kSharingAnEdgeFaces,
          "topology: 1 non-manifold edge (in 3 or more triangles; one joins (0, 0, 0) and (1, 0, 0))\n", 1, 0},
-        {"edge.stl", test::MeshFile::StlBinary, kSharingAnEdge, kSharingAnEdgeFaces, "topology: 1 non-manifold edge", 1, 0},
+        {"edge.stl", test::MeshFile::StlBinary, kSharingAnEdge, kSharingAnEdgeFaces, "topology: 1 non-manifold edge", 1,
+         0},
         {"vertex.obj", test::MeshFile::Obj, kSharingAVertex, kSharingAVertexFaces,
          "topology: 1 non-manifold vertex (where separate fans of triangles meet; one at (0, 0, 0))\n", 0, 1},
-        {"vertex.ply", test::MeshFile::PlyBinary, kSharingAVertex, kSharingAVertexFaces, "topology: 1 non-manifold vertex", 0, 1},
+        {"vertex.ply", test::MeshFile::PlyBinary, kSharingAVertex, kSharingAVertexFaces,
+         "topology: 1 non-manifold vertex", 0, 1},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.file);
@@ -465,8 +472,8 @@ TEST(Cli, MeshesNoisyFogOfSeveralSizesAndSeeds)
         SCOPED_TRACE(std::to_string(size) + "^3, seed " + std::to_string(seed));
         TempDir dir;
         test::writeNoisyFogVdb(dir.path("fog.vdb"), size, seed);
-        const test::CliResult r = runCli("mesh '" + dir.path("fog.vdb") + "' -o '" + dir.path("m.ply") + "' --levels 2 --report '" +
-                                         dir.path("m.json") + "'");
+        const test::CliResult r = runCli("mesh '" + dir.path("fog.vdb") + "' -o '" + dir.path("m.ply") +
+                                         "' --levels 2 --report '" + dir.path("m.json") + "'");
         ASSERT_EQ(r.exitCode, 0) << r.err;
         const nlohmann::json j = readJson(dir.path("m.json"));
         EXPECT_GT(j["statistics"]["tubes"].get<int>(), 10);
@@ -485,9 +492,11 @@ TEST(Cli, RefusesAPipeAsInputWithoutWaiting)
     // writer): one line naming the path, at once (timeout 20 s turns a hang into exit 124).
     TempDir dir;
     ASSERT_EQ(::mkfifo(dir.path("in.vdb").c_str(), 0600), 0);
-    expectRefusal(dir, dir.path("in.vdb"), "", 1, {"in.vdb", "is a pipe", "not a regular file", "save the data to a file"});
+    expectRefusal(dir, dir.path("in.vdb"), "", 1,
+                  {"in.vdb", "is a pipe", "not a regular file", "save the data to a file"});
     const std::string carotid = test::realData("ts_common_carotid_artery_left_ls.vdb");
-    for (const std::string& command : {"mesh <(cat '" + carotid + "') -o '" + dir.path("m.ply") + "'", "info <(cat '" + carotid + "')"}) {
+    for (const std::string& command :
+         {"mesh <(cat '" + carotid + "') -o '" + dir.path("m.ply") + "'", "info <(cat '" + carotid + "')"}) {
         SCOPED_TRACE(command);
         const std::string script = std::string("timeout 20 '") + PIPETILE_CLI + "' " + command;
         const test::CliResult r = runShell("bash -c \"" + script + "\"");
@@ -512,9 +521,10 @@ TEST(Cli, RunningOutOfMemorySaysWhatToLower)
     const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh -o '" +
                                        dir.path("m.ply") + "' --rays 4096 --levels 4");
     EXPECT_EQ(r.exitCode, 1) << r.err;
-    EXPECT_NE(r.err.find("pipetile: error: out of memory meshing the phantom with --levels 4, --rays 4096, --spacing 2: "
-                         "lower --levels or --rays, raise --spacing"),
-              std::string::npos)
+    EXPECT_NE(
+        r.err.find("pipetile: error: out of memory meshing the phantom with --levels 4, --rays 4096, --spacing 2: "
+                   "lower --levels or --rays, raise --spacing"),
+        std::string::npos)
         << r.err;
     EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
     EXPECT_TRUE(dir.files().empty());
@@ -541,11 +551,15 @@ TEST(Cli, OneHotVoxelDoesNotHideTheTube)
         EXPECT_TRUE(t.closed() && t.manifold() && t.oriented() && t.outward());
         EXPECT_EQ(t.euler, 2);
     }
-    EXPECT_NE(r.err.find("iso 0.5, halfway from the background 0 to 1; 1 voxel is denser (up to 100)"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("iso 0.5, halfway from the background 0 to 1; 1 voxel is denser (up to 100)"),
+              std::string::npos)
+        << r.err;
     EXPECT_NE(r.out.find("iso 0.5"), std::string::npos) << r.out;
-    const test::CliResult forced = runCli("mesh '" + dir.path("tube.vdb") + "' -o '" + dir.path("m.ply") + "' --levels 1 --iso 50");
+    const test::CliResult forced =
+        runCli("mesh '" + dir.path("tube.vdb") + "' -o '" + dir.path("m.ply") + "' --levels 1 --iso 50");
     EXPECT_EQ(forced.exitCode, 0) << forced.err;
-    EXPECT_NE(forced.err.find("warning: grid 'density': only 1 active voxel lies inside the surface at iso 50"), std::string::npos)
+    EXPECT_NE(forced.err.find("warning: grid 'density': only 1 active voxel lies inside the surface at iso 50"),
+              std::string::npos)
         << forced.err;
 }
 
@@ -560,7 +574,8 @@ TEST(Cli, FarApartSpheresSideBySide)
 #endif
     TempDir dir;
     openvdb::initialize();
-    const openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+    const openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
     auto grid = openvdb::FloatGrid::create(sphere->background());
     grid->setName("spheres");
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
@@ -570,8 +585,8 @@ TEST(Cli, FarApartSpheresSideBySide)
     openvdb::io::File file(dir.path("side.vdb"));
     file.write({grid});
     file.close();
-    const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh '" + dir.path("side.vdb") +
-                                       "' --axis z --levels 2 -o '" + dir.path("m.ply") + "'");
+    const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh '" +
+                                       dir.path("side.vdb") + "' --axis z --levels 2 -o '" + dir.path("m.ply") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     for (int level : {0, 1}) {
         const Topology t = checkTopology(readMesh(dir.path("m_L" + std::to_string(level) + ".ply")));
@@ -584,8 +599,8 @@ TEST(Cli, UnwritableOutputFails)
 {
     // /proc takes no new files, even from root: the write fails and leaves nothing behind.
     TempDir dir;
-    const test::CliResult r = runCli("mesh '" + test::realData("ts_common_carotid_artery_left_ls.vdb") +
-                                     "' -o /proc/pipetile_out.ply");
+    const test::CliResult r =
+        runCli("mesh '" + test::realData("ts_common_carotid_artery_left_ls.vdb") + "' -o /proc/pipetile_out.ply");
     EXPECT_EQ(r.exitCode, 1) << r.err;
     EXPECT_NE(r.err.find("/proc/pipetile_out_L0.ply"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists("/proc/pipetile_out_L0.ply"));
@@ -669,13 +684,15 @@ TEST(Cli, RefusesTwoOutputsThatAreOneFile)
     // A report over one of the levels, and validate's two outputs on one file.
     TempDir dir;
     const std::string volume = test::realData("ts_common_carotid_artery_left_ls.vdb");
-    const test::CliResult mesh = runCli("mesh '" + volume + "' -o '" + dir.path("m.ply") + "' --report '" + dir.path("m_L1.ply") + "'");
+    const test::CliResult mesh =
+        runCli("mesh '" + volume + "' -o '" + dir.path("m.ply") + "' --report '" + dir.path("m_L1.ply") + "'");
     EXPECT_EQ(mesh.exitCode, 2) << mesh.err;
     EXPECT_NE(mesh.err.find("is also the mesh of level 1"), std::string::npos) << mesh.err;
     EXPECT_TRUE(dir.files().empty());
     ASSERT_EQ(runCli("mesh '" + volume + "' -o '" + dir.path("m.ply") + "' --levels 1").exitCode, 0);
-    const test::CliResult validate = runCli("validate '" + volume + "' '" + dir.path("m_L0.ply") + "' --error-colors '" +
-                                            dir.path("c.ply") + "' --report '" + dir.path("c.ply") + "'");
+    const test::CliResult validate =
+        runCli("validate '" + volume + "' '" + dir.path("m_L0.ply") + "' --error-colors '" + dir.path("c.ply") +
+               "' --report '" + dir.path("c.ply") + "'");
     EXPECT_EQ(validate.exitCode, 2) << validate.err;
     EXPECT_EQ(dir.files(), (std::vector<std::string>{"m_L0.ply"}));
 }
@@ -695,7 +712,8 @@ TEST(Cli, SameOutputWithOneThreadAndAllCores)
         return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     };
     for (int level = 0; level < 4; ++level)
-        EXPECT_EQ(bytes(dir.path("t1_L" + std::to_string(level) + ".ply")), bytes(dir.path("t2_L" + std::to_string(level) + ".ply")));
+        EXPECT_EQ(bytes(dir.path("t1_L" + std::to_string(level) + ".ply")),
+                  bytes(dir.path("t2_L" + std::to_string(level) + ".ply")));
     auto numbers = [&](const std::string& path) {
         nlohmann::json j = readJson(path);
         j.erase("seconds");
@@ -740,7 +758,8 @@ TEST(Cli, BenchReportsTableOneRefinementAndPeers)
     // has a row per level it refines from; every peer is compared with pipetile.
     TempDir dir;
     ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
-    const test::CliResult r = runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" + dir.path("b.json") + "'");
+    const test::CliResult r =
+        runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" + dir.path("b.json") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("## Table 1"), std::string::npos);
     const nlohmann::json j = readJson(dir.path("b.json"));
@@ -787,15 +806,16 @@ TEST(Cli, MeshesTheRealSmokeAsManyClosedPieces)
     for (const char* axis : {"", " --axis x"}) {
         SCOPED_TRACE(axis);
         TempDir dir;
-        const test::CliResult r = runCli("mesh '" + test::realData("gaffer_smoke_fog.vdb") + "' -o '" + dir.path("s.ply") +
-                                         "' --report '" + dir.path("s.json") + "'" + axis);
+        const test::CliResult r = runCli("mesh '" + test::realData("gaffer_smoke_fog.vdb") + "' -o '" +
+                                         dir.path("s.ply") + "' --report '" + dir.path("s.json") + "'" + axis);
         ASSERT_EQ(r.exitCode, 0) << r.err;
         const nlohmann::json j = readJson(dir.path("s.json"));
         const int tubes = j["statistics"]["tubes"].get<int>();
         const int annuli = j["statistics"]["annular_caps"].get<int>();
         const int junctions = static_cast<int>(j["graph"]["junctions"].size()); // forks, merges, rims with holes
         EXPECT_GT(tubes, 10);
-        EXPECT_EQ(j["statistics"]["caps"].get<int>(), 2 * tubes - 2 * annuli - j["events"]["saddles"].get<int>() - 2 * junctions);
+        EXPECT_EQ(j["statistics"]["caps"].get<int>(),
+                  2 * tubes - 2 * annuli - j["events"]["saddles"].get<int>() - 2 * junctions);
         for (const auto& level : j["levels"]) {
             const Topology t = checkTopology(readMesh(level["file"].get<std::string>()));
             EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
@@ -826,7 +846,10 @@ test::CliResult meshCarotid(const std::string& folder, const std::string& ext, c
         .wait();
 }
 
-std::string folderOf(const TempDir& dir) { return dir.path("").substr(0, dir.path("").size() - 1); }
+std::string folderOf(const TempDir& dir)
+{
+    return dir.path("").substr(0, dir.path("").size() - 1);
+}
 
 } // namespace
 
@@ -904,7 +927,8 @@ TEST(Cli, FullDiskLosesNothingInEveryFormat)
     // up, a second run cannot write its temporaries: exit 1, the message names a level and the
     // cause, and the first run's files are there byte for byte, with nothing beside them.
     test::SmallDisk disk(1 << 20);
-    if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs here (needs root); Cli.FileSizeLimit... covers the class";
+    if (!disk.mounted())
+        GTEST_SKIP() << "cannot mount a tmpfs here (needs root); Cli.FileSizeLimit... covers the class";
     const std::string folder = disk.path("").substr(0, disk.path("").size() - 1);
     for (const std::string ext : {"ply", "obj", "stl", "off"}) {
         SCOPED_TRACE(ext);
@@ -913,7 +937,8 @@ TEST(Cli, FullDiskLosesNothingInEveryFormat)
         const auto before = test::folderBytes(folder);
         const test::CliResult r = meshCarotid(folder, ext, "--rays 12");
         EXPECT_EQ(r.exitCode, 1) << r.err;
-        EXPECT_NE(r.err.find("/m_L0." + ext + "': cannot write it (No space left on device; free some space"), std::string::npos)
+        EXPECT_NE(r.err.find("/m_L0." + ext + "': cannot write it (No space left on device; free some space"),
+                  std::string::npos)
             << r.err;
         EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 2) << "a warning about rays, then one line: " << r.err;
         EXPECT_TRUE(test::sameFiles(test::folderBytes(folder), before));
@@ -935,7 +960,8 @@ TEST(Cli, FileSizeLimitLosesNothingInEveryFormat)
         const auto before = test::folderBytes(folder);
         const test::CliResult r = meshCarotid(folder, ext, "--rays 12", "trap '' XFSZ; ulimit -f 40;");
         EXPECT_EQ(r.exitCode, 1) << r.err;
-        EXPECT_NE(r.err.find("': cannot write it (File too large; the file size limit (ulimit -f)"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("': cannot write it (File too large; the file size limit (ulimit -f)"), std::string::npos)
+            << r.err;
         EXPECT_TRUE(test::sameFiles(test::folderBytes(folder), before));
     }
 }
@@ -951,17 +977,18 @@ TEST(Cli, AReportOrColoursThatCannotBeWrittenKeepNothing)
     const std::string input = test::realData(kCarotid);
     ASSERT_EQ(runCli("mesh '" + input + "' -o '" + dir.path("m.ply") + "'").exitCode, 0);
     const auto meshes = test::folderBytes(folderOf(dir));
-    const test::CliResult mesh = runCli("mesh '" + input + "' -o '" + dir.path("m.ply") + "' --rays 12 --report '" +
-                                        disk.path("r.json") + "'");
+    const test::CliResult mesh =
+        runCli("mesh '" + input + "' -o '" + dir.path("m.ply") + "' --rays 12 --report '" + disk.path("r.json") + "'");
     EXPECT_EQ(mesh.exitCode, 1) << mesh.err;
     EXPECT_NE(mesh.err.find("r.json': cannot write it (No space left on device"), std::string::npos) << mesh.err;
     EXPECT_TRUE(test::sameFiles(test::folderBytes(folderOf(dir)), meshes));
     EXPECT_EQ(disk.files(), (std::vector<std::string>{"filler"}));
 
-    for (const auto& [colors, report] : {std::pair{disk.path("c.ply"), dir.path("v.json")}, std::pair{dir.path("c.ply"), disk.path("v.json")}}) {
+    for (const auto& [colors, report] :
+         {std::pair{disk.path("c.ply"), dir.path("v.json")}, std::pair{dir.path("c.ply"), disk.path("v.json")}}) {
         SCOPED_TRACE(colors + " " + report);
-        const test::CliResult v = runCli("validate '" + input + "' '" + dir.path("m_L1.ply") + "' --error-colors '" + colors +
-                                         "' --report '" + report + "'");
+        const test::CliResult v = runCli("validate '" + input + "' '" + dir.path("m_L1.ply") + "' --error-colors '" +
+                                         colors + "' --report '" + report + "'");
         EXPECT_EQ(v.exitCode, 1) << v.err;
         EXPECT_NE(v.err.find("No space left on device"), std::string::npos) << v.err;
         EXPECT_TRUE(test::sameFiles(test::folderBytes(folderOf(dir)), meshes));
@@ -983,9 +1010,10 @@ TEST(Cli, AFailedRenameMidSequenceRestoresTheEarlierOutputs)
     const auto before = test::folderBytes(folder);
     const test::CliResult r = meshCarotid(folder, "ply", "--rays 12");
     EXPECT_EQ(r.exitCode, 1) << r.err;
-    EXPECT_NE(r.err.find("m_L2.ply': cannot replace it, it is a folder; remove it or choose another name; nothing of this "
-                         "run was kept, the earlier files are as they were"),
-              std::string::npos)
+    EXPECT_NE(
+        r.err.find("m_L2.ply': cannot replace it, it is a folder; remove it or choose another name; nothing of this "
+                   "run was kept, the earlier files are as they were"),
+        std::string::npos)
         << r.err;
     EXPECT_TRUE(test::sameFiles(test::folderBytes(folder), before));
 }
@@ -1013,7 +1041,8 @@ EarlierAndComplete earlierAndComplete(const TempDir& earlier, const TempDir& fre
     EarlierAndComplete runs;
     runs.args = " --levels 8 --report '";
     EXPECT_EQ(runCli("mesh -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") + "'").exitCode, 0);
-    EXPECT_EQ(runCli("mesh --rays 9 -o '" + fresh.path("m.ply") + "'" + runs.args + fresh.path("m.json") + "'").exitCode, 0);
+    EXPECT_EQ(
+        runCli("mesh --rays 9 -o '" + fresh.path("m.ply") + "'" + runs.args + fresh.path("m.json") + "'").exitCode, 0);
     runs.old = test::folderBytes(folderOf(earlier));
     runs.complete = meshBytes(folderOf(fresh));
     return runs;
@@ -1038,14 +1067,19 @@ TEST(Cli, SignalsLeaveTheEarlierOutputsWhole)
     const std::string folder = folderOf(earlier);
     const EarlierAndComplete runs = earlierAndComplete(earlier, fresh);
     ASSERT_FALSE(::testing::Test::HasFailure());
-    const std::vector<InterruptPoint> points = {{".m_L0.ply.pipetile-lock", 0.0}, {".m_L0.ply.pipetile-tmp", 0.0},
-                                       {".m_L7.ply.pipetile-tmp", 0.0},   {"", 0.5},
-                                       {"", 1.0},                         {"", 1.5}};
+    const std::vector<InterruptPoint> points = {{".m_L0.ply.pipetile-lock", 0.0},
+                                                {".m_L0.ply.pipetile-tmp", 0.0},
+                                                {".m_L7.ply.pipetile-tmp", 0.0},
+                                                {"", 0.5},
+                                                {"", 1.0},
+                                                {"", 1.5}};
     int interrupted = 0;
     for (std::size_t k = 0; k < points.size(); ++k) {
         const int signal = k % 2 ? SIGTERM : SIGINT;
-        SCOPED_TRACE("signal " + std::to_string(signal) + " at " + points[k].trigger + " + " + std::to_string(points[k].delay));
-        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") + "'");
+        SCOPED_TRACE("signal " + std::to_string(signal) + " at " + points[k].trigger + " + " +
+                     std::to_string(points[k].delay));
+        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") +
+                             "'");
         if (!points[k].trigger.empty()) {
             ASSERT_TRUE(test::waitForFile(earlier.path(points[k].trigger)));
         }
@@ -1104,13 +1138,17 @@ TEST(Cli, AKilledRunIsUndoneOrFinishedByTheNextRunEvenOneThatFails)
     const std::string folder = folderOf(earlier);
     const EarlierAndComplete runs = earlierAndComplete(earlier, fresh);
     ASSERT_FALSE(::testing::Test::HasFailure());
-    const std::vector<InterruptPoint> points = {{".m_L0.ply.pipetile-lock", 0.0}, {".m_L0.ply.pipetile-tmp", 0.0},
-                                       {".m_L7.ply.pipetile-tmp", 0.0},   {".m_L7.ply.pipetile-tmp", 0.05},
-                                       {"", 0.5},                         {"", 1.5}};
+    const std::vector<InterruptPoint> points = {{".m_L0.ply.pipetile-lock", 0.0},
+                                                {".m_L0.ply.pipetile-tmp", 0.0},
+                                                {".m_L7.ply.pipetile-tmp", 0.0},
+                                                {".m_L7.ply.pipetile-tmp", 0.05},
+                                                {"", 0.5},
+                                                {"", 1.5}};
     int killed = 0;
     for (const InterruptPoint& point : points) {
         SCOPED_TRACE("SIGKILL at " + point.trigger + " + " + std::to_string(point.delay));
-        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") + "'");
+        test::CliProcess run("mesh --rays 9 -o '" + earlier.path("m.ply") + "'" + runs.args + earlier.path("m.json") +
+                             "'");
         if (!point.trigger.empty()) {
             ASSERT_TRUE(test::waitForFile(earlier.path(point.trigger)));
         }
@@ -1123,7 +1161,8 @@ TEST(Cli, AKilledRunIsUndoneOrFinishedByTheNextRunEvenOneThatFails)
         EXPECT_EQ(next.exitCode, 1) << next.err;
         const auto after = test::folderBytes(folder);
         if (after == runs.old) continue;
-        EXPECT_TRUE(test::sameFiles(meshBytes(folder), runs.complete)) << "neither the earlier set nor the killed run's";
+        EXPECT_TRUE(test::sameFiles(meshBytes(folder), runs.complete))
+            << "neither the earlier set nor the killed run's";
         EXPECT_EQ(readJson(earlier.path("m.json"))["levels"][0]["rays"].get<int>(), 9);
         // Put the earlier set back for the next point.
         std::filesystem::remove_all(folder);
@@ -1155,8 +1194,10 @@ TEST(Cli, ASecondRunOnTheSameOutputFailsNamingTheFirst)
         EXPECT_EQ(readMesh(level["file"].get<std::string>()).triangles.size(), level["triangles"].get<std::size_t>());
 
     // Started together: one takes the outputs, the other is refused; the set is the winner's.
-    test::CliProcess first("mesh --levels 8 -o '" + dir.path("m.ply") + "' --rays 9 --report '" + dir.path("m.json") + "'");
-    test::CliProcess second("mesh --levels 8 -o '" + dir.path("m.ply") + "' --rays 10 --report '" + dir.path("m.json") + "'");
+    test::CliProcess first("mesh --levels 8 -o '" + dir.path("m.ply") + "' --rays 9 --report '" + dir.path("m.json") +
+                           "'");
+    test::CliProcess second("mesh --levels 8 -o '" + dir.path("m.ply") + "' --rays 10 --report '" + dir.path("m.json") +
+                            "'");
     const int one = first.wait().exitCode, two = second.wait().exitCode;
     EXPECT_EQ(std::min(one, two), 0);
     EXPECT_EQ(std::max(one, two), 1);
@@ -1196,8 +1237,9 @@ TEST(Cli, FarFromTheOriginPositionsStayExact)
     TempDir dir;
     writeNearAndFar(dir);
     for (const char* name : {"near", "far"})
-        ASSERT_EQ(runCli(std::string("mesh '") + dir.path(name + std::string(".vdb")) + "' -o '" + dir.path(name + std::string(".ply")) +
-                         "' --validate --report '" + dir.path(name + std::string(".json")) + "'")
+        ASSERT_EQ(runCli(std::string("mesh '") + dir.path(name + std::string(".vdb")) + "' -o '" +
+                         dir.path(name + std::string(".ply")) + "' --validate --report '" +
+                         dir.path(name + std::string(".json")) + "'")
                       .exitCode,
                   0);
     const nlohmann::json near = readJson(dir.path("near.json")), far = readJson(dir.path("far.json"));
@@ -1209,7 +1251,8 @@ TEST(Cli, FarFromTheOriginPositionsStayExact)
         ASSERT_EQ(a.size(), b.size());
         ASSERT_FALSE(a.empty());
         double worst = 0.0;
-        for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, glm::length(b[i] - a[i] - glm::dvec3(1e6, 0, 0)));
+        for (std::size_t i = 0; i < a.size(); ++i)
+            worst = std::max(worst, glm::length(b[i] - a[i] - glm::dvec3(1e6, 0, 0)));
         EXPECT_LE(worst, 1e-8) << "world units; the voxel is 0.01";
         RecordProperty("far_vertex_error_L" + std::to_string(level), (testing::Message() << worst).GetString());
         const auto &vn = near["levels"][level]["validation"], &vf = far["levels"][level]["validation"];
@@ -1221,7 +1264,8 @@ TEST(Cli, FarFromTheOriginPositionsStayExact)
     }
     const test::CliResult stl = runCli("mesh '" + dir.path("far.vdb") + "' -o '" + dir.path("far.stl") + "'");
     EXPECT_EQ(stl.exitCode, 0) << stl.err;
-    EXPECT_NE(stl.err.find("far.stl': float32 coordinates (the format's only kind) move vertices by up to"), std::string::npos)
+    EXPECT_NE(stl.err.find("far.stl': float32 coordinates (the format's only kind) move vertices by up to"),
+              std::string::npos)
         << stl.err;
     const test::CliResult nearStl = runCli("mesh '" + dir.path("near.vdb") + "' -o '" + dir.path("near.stl") + "'");
     EXPECT_EQ(nearStl.err.find("float32"), std::string::npos) << nearStl.err;

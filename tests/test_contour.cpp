@@ -123,15 +123,14 @@ TEST(Contour, FoldAcrossRayZeroGivesDownInDownOut)
     // and leaves it at 7.5 (InOut); rays 1-3 cross the square once. The walk starts at the
     // outermost InOut of ray 0 and meets 6.5 then 3.5 going inward: D_I, D_O (DESIGN.md's worked
     // example, "if it meets r3 first"), then one F per sector.
-    const FieldImage image = binaryImage({-3, -3}, {
-        "#######.###", // v = 3: top bar of the hook, not joined to the square
-        "#######...#",
-        "#######...#",
-        "#######...#", // v = 0: ray 0 crosses here
-        "#######...#",
-        "#######...#",
-        "###########", // v = -3: bottom bar joins the hook to the square
-    });
+    const FieldImage image =
+        binaryImage({-3, -3}, {
+                                  "#######.###", // v = 3: top bar of the hook, not joined to the square
+                                  "#######...#", "#######...#",
+                                  "#######...#", // v = 0: ray 0 crosses here
+                                  "#######...#", "#######...#",
+                                  "###########", // v = -3: bottom bar joins the hook to the square
+                              });
     const std::vector<BoundaryLoop> loops = traceBoundaries(image);
     ASSERT_EQ(loops.size(), 1u);
     const Contour contour = castRays(loops[0], {0.3, 0.2}, RaySet{4, 0}, image);
@@ -150,8 +149,8 @@ TEST(Contour, RadialProfileIsWhereTheRaysMeetThePolygonFirstAndLast)
     // centre to the polygon along the ray), without root finding: per direction, the nearest and
     // farthest crackT of that ray's crossings. On the hook above ray 0 meets the polygon at 3.5,
     // 6.5 and 7.5 (so 3.2 and 7.2 from the centre); on a circle every ray meets it once.
-    const FieldImage hook = binaryImage({-3, -3}, {
-        "#######.###", "#######...#", "#######...#", "#######...#", "#######...#", "#######...#", "###########"});
+    const FieldImage hook = binaryImage({-3, -3}, {"#######.###", "#######...#", "#######...#", "#######...#",
+                                                   "#######...#", "#######...#", "###########"});
     const FieldImage circle = circleImage({20.37, 19.81}, 10.3, 41);
     for (const FieldImage* image : {&hook, &circle}) {
         const std::vector<BoundaryLoop> loops = traceBoundaries(*image);
@@ -183,14 +182,14 @@ TEST(Contour, FoldAcrossTwoRaysMakesAnAmbiguousSector)
     // above it, and comes back down on the left side past ray 2, then ends. Rays 1 (up) crosses
     // the square and the arm: 3 crossings; the contour still winds once: #F - #B = n.
     const FieldImage image = binaryImage({-2, -2}, {
-        "#######", // v = 4
-        "#.....#",
-        "#.#####", // v = 2: square top row
-        "#.#####",
-        "#.#####", // v = 0
-        "..#####",
-        "..#####", // v = -2
-    });
+                                                       "#######", // v = 4
+                                                       "#.....#",
+                                                       "#.#####", // v = 2: square top row
+                                                       "#.#####",
+                                                       "#.#####", // v = 0
+                                                       "..#####",
+                                                       "..#####", // v = -2
+                                                   });
     const std::vector<BoundaryLoop> loops = traceBoundaries(image);
     ASSERT_EQ(loops.size(), 1u);
     const Contour contour = castRays(loops[0], {2.2, 0.1}, RaySet{8, 0}, image);
@@ -204,14 +203,14 @@ TEST(Contour, CentralPointOfACShapeIsInside)
 {
     // A C whose centroid falls in its mouth: the central point must still be enclosed.
     const FieldImage image = binaryImage({0, 0}, {
-        "#########",
-        "#########",
-        "##.......",
-        "##.......",
-        "##.......",
-        "#########",
-        "#########",
-    });
+                                                     "#########",
+                                                     "#########",
+                                                     "##.......",
+                                                     "##.......",
+                                                     "##.......",
+                                                     "#########",
+                                                     "#########",
+                                                 });
     const std::vector<BoundaryLoop> loops = traceBoundaries(image);
     ASSERT_EQ(loops.size(), 1u);
     EXPECT_FALSE(encloses(loops[0], loops[0].centroid)); // (3.5, 3): in the mouth
@@ -289,7 +288,10 @@ std::size_t sharedCrossings(const Contour& coarse, const Contour& fine)
     std::size_t shared = 0;
     for (const Crossing& a : coarse.crossings)
         for (const Crossing& b : fine.crossings)
-            if (a.point.x == b.point.x && a.point.y == b.point.y) { ++shared; break; }
+            if (a.point.x == b.point.x && a.point.y == b.point.y) {
+                ++shared;
+                break;
+            }
     return shared;
 }
 
@@ -322,7 +324,7 @@ TEST(Contour, AddedRaysSeeAFoldTheLevelsRaysHide)
     const Contour scratch1 = castRays(loops[0], center, once, image);
     ASSERT_EQ(c1.crossings.size(), scratch1.crossings.size());
     EXPECT_EQ(sharedCrossings(c1, scratch1), c1.crossings.size()); // refining = casting all
-    EXPECT_EQ(sharedCrossings(c0, c1), c0.crossings.size());      // the old rays' crossings stay
+    EXPECT_EQ(sharedCrossings(c0, c1), c0.crossings.size());       // the old rays' crossings stay
     for (const Crossing& x : c1.crossings) {
         if (x.ray == 1) {
             EXPECT_NEAR(std::atan2(x.point.y - center.y, x.point.x - center.x), M_PI / 8, 1e-12);

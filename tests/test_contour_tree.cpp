@@ -165,7 +165,8 @@ TEST(ContourTree, RandomNonStarSectionsTileAsClosedStrips)
         ++tested;
         ambiguous += ta.ambiguousSectors() > 0 ? 1 : 0;
         nonStar += ca.crossings.size() > static_cast<std::size_t>(rays.count()) ? 1 : 0;
-        const std::uint32_t m = static_cast<std::uint32_t>(ca.crossings.size()), n = static_cast<std::uint32_t>(cb.crossings.size());
+        const std::uint32_t m = static_cast<std::uint32_t>(ca.crossings.size()),
+                            n = static_cast<std::uint32_t>(cb.crossings.size());
         ASSERT_TRUE(test::isClosedStrip(tileBand(ta, tb), m, n)) << "trial " << trial;
         const std::vector<Triangle> self = tileBand(ta, ta);
         ASSERT_TRUE(test::isClosedStrip(self, m, m)) << "trial " << trial;
@@ -181,7 +182,8 @@ TEST(ContourTree, RandomNonStarSectionsTileAsClosedStrips)
     EXPECT_GT(tested, 1800);
     EXPECT_GT(nonStar, tested / 4);
     EXPECT_GT(ambiguous, 20);
-    std::printf("[ stats    ] %d sections, %d not star-shaped, %d with ambiguous sectors\n", tested, nonStar, ambiguous);
+    std::printf("[ stats    ] %d sections, %d not star-shaped, %d with ambiguous sectors\n", tested, nonStar,
+                ambiguous);
 }
 
 namespace {

@@ -144,7 +144,8 @@ TEST(Gltf, EveryLevelIsAPrefixOfOneVertexArray)
             // min and max: exactly those of the stored floats, as the spec requires.
             for (int c = 0; c < 3; ++c) {
                 float lo = p[c], hi = p[c];
-                for (std::size_t v = 0; v < positions.count; ++v) lo = std::min(lo, p[3 * v + c]), hi = std::max(hi, p[3 * v + c]);
+                for (std::size_t v = 0; v < positions.count; ++v)
+                    lo = std::min(lo, p[3 * v + c]), hi = std::max(hi, p[3 * v + c]);
                 EXPECT_EQ(positions.minValues.at(c), lo);
                 EXPECT_EQ(positions.maxValues.at(c), hi);
             }
@@ -284,7 +285,8 @@ TEST(Cli, HtmlReportsOfMeshAndValidateHoldTheirData)
     ASSERT_EQ(page["levels"].size(), 4u);
     for (std::size_t k = 0; k < 4; ++k) {
         EXPECT_EQ(page["levels"][k]["triangles"], report["levels"][k]["triangles"]);
-        EXPECT_EQ(page["levels"][k]["validation"]["hausdorff_voxels"], report["levels"][k]["validation"]["hausdorff_voxels"]);
+        EXPECT_EQ(page["levels"][k]["validation"]["hausdorff_voxels"],
+                  report["levels"][k]["validation"]["hausdorff_voxels"]);
     }
     EXPECT_TRUE(page["peers"].is_null());
     // One file: its script and the .glb inside it, nothing beside it.
@@ -308,8 +310,8 @@ TEST(Cli, BenchHtmlPlotsEveryPeerAndShowsEveryLevel)
 {
     TempDir dir;
     ASSERT_EQ(test::runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
-    const test::CliResult r = test::runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" + dir.path("b.json") +
-                                           "' --html '" + dir.path("b.html") + "'");
+    const test::CliResult r = test::runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" +
+                                           dir.path("b.json") + "' --html '" + dir.path("b.html") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const nlohmann::json report = readJsonFile(dir.path("b.json"));
     const nlohmann::json page = pageData(dir.path("b.html"));

@@ -176,7 +176,8 @@ TEST(Graph, ArcsOfAPeanutGoToItsLobes)
     for (int cut : arcs.cuts) EXPECT_LT(std::abs(single[cut].x), 1.0) << cut;
     // Two partners and a ring (a wall of radius 10 around a hole of radius 5) against them: both
     // loops are cut into a left and a right arc, in the same order.
-    const std::vector<glm::dvec2> wall = circle({0.0, 0.0}, 10.0, 10.0, 64), hole = circle({0.0, 0.0}, 5.0, 5.0, 32, true);
+    const std::vector<glm::dvec2> wall = circle({0.0, 0.0}, 10.0, 10.0, 64),
+                                  hole = circle({0.0, 0.0}, 5.0, 5.0, 32, true);
     JunctionArcs ring;
     ASSERT_TRUE(splitIntoArcs(wall, &hole, {&left, &right}, ring));
     EXPECT_FALSE(ring.hubbed);
@@ -220,7 +221,7 @@ Volume twistingC(double radiansPerVoxel)
         inPlane /= lipschitz;
         const double along = (std::abs(p.z - 32.0) - 16.0) / lipschitz;
         return std::max(inPlane, along) > 0.0 ? glm::length(glm::dvec2(std::max(inPlane, 0.0), std::max(along, 0.0)))
-                                               : std::max(inPlane, along);
+                                              : std::max(inPlane, along);
     };
     return samples::levelSetFromDistance(c, {64, 64, 64}, 1.0, "twisting C");
 }
@@ -291,7 +292,8 @@ int areaJunctionParts(const char* name)
 {
     const Reconstruction reconstruction(test::cachedSample(name), MeshOptions{});
     int parts = 0;
-    for (int level = 0; level < reconstruction.levelCount(); ++level) parts += reconstruction.buildLevel(level).areaJunctionParts;
+    for (int level = 0; level < reconstruction.levelCount(); ++level)
+        parts += reconstruction.buildLevel(level).areaJunctionParts;
     return parts;
 }
 
@@ -350,61 +352,121 @@ TEST(Graph, BaselineTilersCloseEveryLevelToo)
 
 // Each phantom's expected numbers are its own (samples/phantoms.cpp derives them, and
 // Samples.KnownTopologyMatchesTheIsosurface checks them against volumeToMesh).
-TEST(Graph, YBranch) { expectIsosurfaceTopology("ybranch"); }
-TEST(Graph, UBend) { expectIsosurfaceTopology("ubend"); }
-TEST(Graph, XCrossFusesThenParts) { expectIsosurfaceTopology("xcross"); }
-TEST(Graph, TorusLyingFlat) { expectIsosurfaceTopology("torus-flat"); }
-TEST(Graph, TorusStanding) { expectIsosurfaceTopology("torus-standing"); }
-TEST(Graph, ClosedHollowTank) { expectIsosurfaceTopology("tank", 1); }
+TEST(Graph, YBranch)
+{
+    expectIsosurfaceTopology("ybranch");
+}
+TEST(Graph, UBend)
+{
+    expectIsosurfaceTopology("ubend");
+}
+TEST(Graph, XCrossFusesThenParts)
+{
+    expectIsosurfaceTopology("xcross");
+}
+TEST(Graph, TorusLyingFlat)
+{
+    expectIsosurfaceTopology("torus-flat");
+}
+TEST(Graph, TorusStanding)
+{
+    expectIsosurfaceTopology("torus-standing");
+}
+TEST(Graph, ClosedHollowTank)
+{
+    expectIsosurfaceTopology("tank", 1);
+}
 // The channel's ends were closed flat (holes sought no apex), 2 voxels from its rounded ends.
-TEST(Graph, LumenClosedInsideARod) { expectIsosurfaceTopology("lumen-rod", 1); }
+TEST(Graph, LumenClosedInsideARod)
+{
+    expectIsosurfaceTopology("lumen-rod", 1);
+}
 // Its three branches touch pairwise above the fork: a ring with two holes whose gaps open at once
 // (one contour against a wall and two holes, closed by chords across the gaps).
-TEST(Graph, Trifurcation) { expectIsosurfaceTopology("trifurcation"); }
+TEST(Graph, Trifurcation)
+{
+    expectIsosurfaceTopology("trifurcation");
+}
 // Lying flat, their wall begins and ends with both holes at once: faces with two holes.
-TEST(Graph, TwoFusedTori) { expectIsosurfaceTopology("two-tori"); }
-TEST(Graph, SerpentineAcrossTheSlices) { expectIsosurfaceTopology("serpentine"); }
-TEST(Graph, ObliqueThinVessel) { expectIsosurfaceTopology("oblique"); }
-TEST(Graph, TwoTubesStayTwo) { expectIsosurfaceTopology("two-tubes"); }
-TEST(Graph, HollowPipe) { expectIsosurfaceTopology("hollow"); }
+TEST(Graph, TwoFusedTori)
+{
+    expectIsosurfaceTopology("two-tori");
+}
+TEST(Graph, SerpentineAcrossTheSlices)
+{
+    expectIsosurfaceTopology("serpentine");
+}
+TEST(Graph, ObliqueThinVessel)
+{
+    expectIsosurfaceTopology("oblique");
+}
+TEST(Graph, TwoTubesStayTwo)
+{
+    expectIsosurfaceTopology("two-tubes");
+}
+TEST(Graph, HollowPipe)
+{
+    expectIsosurfaceTopology("hollow");
+}
 
 // Three generations: forks, and where the branches' sections touch above a fork, a ring that
 // breaks open in two places at once (a wall and its hole against two walls: two sectors).
-TEST(Graph, VesselTree) { expectIsosurfaceTopology("tree"); }
+TEST(Graph, VesselTree)
+{
+    expectIsosurfaceTopology("tree");
+}
 // Two branches touch along a seam and part through a one-pixel hole: a ring against two walls
 // whose hole is too small for each wall to be nearest part of it (it was capped contour by
 // contour: 4 components, Euler 8).
-TEST(Graph, BranchesPartThroughAPixelHole) { expectIsosurfaceTopology("parting"); }
+TEST(Graph, BranchesPartThroughAPixelHole)
+{
+    expectIsosurfaceTopology("parting");
+}
 // A T whose side branch lies in a slicing plane: the arm grows along its whole length at once.
 // Its first section pulled the centroid 8 voxels along the arm (the trunk's band then ran 2.7
 // voxels inside the trunk), and the arm's rounded tip, 40 voxels from the trunk's centre, falls
 // between rays 4 voxels apart at the top level: centres follow their tube, and the top level
 // halves sectors whose edges cut corners.
-TEST(Graph, TBranchInTheSlicingPlane) { expectIsosurfaceTopology("tbranch"); }
+TEST(Graph, TBranchInTheSlicingPlane)
+{
+    expectIsosurfaceTopology("tbranch");
+}
 // A Y-shaped pipe open at its three ends: its rounded rims appear as arcs that close into a ring
 // (several walls against a wall and its hole), and its channel forks with the wall. Where the oblique channel leaves each
 // rounded end, the last sections are thin crescents whose horns run along the rim: their bands
 // are halved below half a voxel while the shape changes fast, and each crescent's centre stays a
 // pixel clear near its predecessor's (a jump to the centroid, by the inner edge, turned the
 // horns against each other's rays: 1.07 voxels off).
-TEST(Graph, HollowY) { expectIsosurfaceTopology("hollow-y"); }
+TEST(Graph, HollowY)
+{
+    expectIsosurfaceTopology("hollow-y");
+}
 // Two boxes whose voxels touch along one voxel edge in a voxel plane, and nowhere else: the walk
 // joined the two diagonal pixels there (8-connected), one surface, where volumeToMesh has two
 // (a random capsule tree grew a handle this way). On voxel planes the walk and the slab now
 // leave such a saddle open as volumeToMesh's cell tables do. Boxes' sharp edges, not what the
 // tool is for, put the top level up to 2 voxels off at their corners: topology only.
-TEST(Graph, BlocksTouchingAlongAVoxelEdgeStayTwo) { expectIsosurfaceTopology("touching-blocks", 0, false); }
+TEST(Graph, BlocksTouchingAlongAVoxelEdgeStayTwo)
+{
+    expectIsosurfaceTopology("touching-blocks", 0, false);
+}
 // Steps touching the next only along voxel edges across a voxel plane: volumeToMesh joins them
 // (one surface, Euler 2). The slab linked inside voxels across planes only one above the other,
 // so each step was a surface of its own (Euler 8, 4 components); between two voxel planes it now
 // links such contacts as volumeToMesh does, and a plane added between voxel planes, which cannot
 // show them, is dropped when its halves disagree with the slab's Euler characteristic (a random
 // capsule tree's void, closed off by such contacts, was lost).
-TEST(Graph, StepsTouchingAcrossAVoxelPlane) { expectIsosurfaceTopology("steps"); }
+TEST(Graph, StepsTouchingAcrossAVoxelPlane)
+{
+    expectIsosurfaceTopology("steps");
+}
 // Two pillars, each with a loop of its own on every plane, touching along voxel edges across a
 // voxel plane: volumeToMesh joins them (Euler 2, 1 component). The slab took them as two bands
 // without labelling (Euler 4, 2 components); labelled, it held one piece against two loops on
 // each side, two saddles within one voxel. Loop boxes a pixel apart now send a slab to the
 // labelling, and planes between voxel planes show the contact as a bridge of two pixels, so the
 // slab bisects into a merge and a fork (a random capsule tree missed a handle this way).
-TEST(Graph, PillarsTouchingAcrossAVoxelPlane) { expectIsosurfaceTopology("pillars"); }
+TEST(Graph, PillarsTouchingAcrossAVoxelPlane)
+{
+    expectIsosurfaceTopology("pillars");
+}

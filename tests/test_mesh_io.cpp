@@ -71,7 +71,8 @@ TEST(MeshIo, BrokenMeshIsRefusedAndTheOldFileKept)
     TriangleMesh nan = octahedron(), dangling = octahedron();
     nan.vertices[4].z = std::numeric_limits<double>::quiet_NaN();
     dangling.triangles.push_back({0, 2, 6}); // 6 vertices: ids 0-5
-    for (const auto& [mesh, message] : {std::pair{nan, "vertex 4 is not finite"}, std::pair{dangling, "triangle 8 names vertex 6 of 6"}}) {
+    for (const auto& [mesh, message] :
+         {std::pair{nan, "vertex 4 is not finite"}, std::pair{dangling, "triangle 8 names vertex 6 of 6"}}) {
         try {
             writeMesh(mesh, dir.path("keep.ply"));
             ADD_FAILURE() << message << ": no error";
@@ -123,7 +124,8 @@ TEST(MeshIo, PositionsFarFromTheOriginKeepTheirDoublePrecision)
             std::string tag, x, y, z;
             if (ext == "obj" && !(words >> tag && tag == "v")) continue;
             words >> x >> y >> z;
-            back.push_back({std::strtod(x.c_str(), nullptr), std::strtod(y.c_str(), nullptr), std::strtod(z.c_str(), nullptr)});
+            back.push_back(
+                {std::strtod(x.c_str(), nullptr), std::strtod(y.c_str(), nullptr), std::strtod(z.c_str(), nullptr)});
         }
         EXPECT_EQ(back, far.vertices);
     }
@@ -156,13 +158,15 @@ namespace {
 
 using Faces = std::vector<std::vector<long long>>;
 
-const std::vector<glm::dvec3> kOctahedronVertices = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+const std::vector<glm::dvec3> kOctahedronVertices = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                                     {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
 const Faces kOctahedronFaces = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
 
 // The unit tetrahedron (outward, volume 1/6) and a second one glued to it: at the edge from
 // (0,0,0) to (1,0,0) (the first turned half a turn about x), or at the origin alone (the first
 // mirrored through the origin, faces reversed to stay outward).
-const std::vector<glm::dvec3> kTetrahedraSharingAnEdge = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}};
+const std::vector<glm::dvec3> kTetrahedraSharingAnEdge = {{0, 0, 0}, {1, 0, 0},  {0, 1, 0},
+                                                          {0, 0, 1}, {0, -1, 0}, {0, 0, -1}};
 const Faces kTetrahedraSharingAnEdgeFaces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
                                              {0, 4, 1}, {0, 1, 5}, {0, 5, 4}, {1, 4, 5}};
 const std::vector<glm::dvec3> kTetrahedraSharingAVertex = {{0, 0, 0},  {1, 0, 0},  {0, 1, 0}, {0, 0, 1},
@@ -187,11 +191,15 @@ std::string readError(const std::string& path)
     if (message.empty()) return ::testing::AssertionFailure() << "no error";
     if (message.find('\n') != std::string::npos) return ::testing::AssertionFailure() << "several lines: " << message;
     for (const std::string& part : parts)
-        if (message.find(part) == std::string::npos) return ::testing::AssertionFailure() << "no '" << part << "' in: " << message;
+        if (message.find(part) == std::string::npos)
+            return ::testing::AssertionFailure() << "no '" << part << "' in: " << message;
     return ::testing::AssertionSuccess();
 }
 
-bool isStl(MeshFile kind) { return kind == MeshFile::StlAscii || kind == MeshFile::StlBinary; }
+bool isStl(MeshFile kind)
+{
+    return kind == MeshFile::StlAscii || kind == MeshFile::StlBinary;
+}
 
 } // namespace
 
@@ -297,7 +305,9 @@ TEST(MeshIo, NonFiniteCoordinatesAreRefusedByVertex)
             SCOPED_TRACE(test::nameOf(kind) + " " + spelled);
             const std::string path = dir.path(test::nameOf(kind) + test::extensionOf(kind));
             test::writeMeshFile(path, kind, vertices, kOctahedronFaces);
-            const std::string where = isStl(kind) ? "facet 2" : kind == MeshFile::Obj ? "vertex 4 (line 4)" : "vertex 3";
+            const std::string where = isStl(kind)             ? "facet 2"
+                                      : kind == MeshFile::Obj ? "vertex 4 (line 4)"
+                                                              : "vertex 3";
             EXPECT_TRUE(mentions(readError(path), {"'" + path + "'", where, spelled, "not a finite number"}));
         }
     }
@@ -337,7 +347,8 @@ TEST(MeshIo, IndicesOutOfRangeOrNegativeAreRefusedByFace)
             else if (kind == MeshFile::Obj)
                 EXPECT_TRUE(mentions(message, {"face 6 (line 12)", "refers to vertex 7", "numbered 1 to 6"}));
             else
-                EXPECT_TRUE(mentions(message, {"'" + path + "'", "face 5", "refers to vertex " + std::to_string(bad), "numbered 0 to 5"}));
+                EXPECT_TRUE(mentions(message, {"'" + path + "'", "face 5", "refers to vertex " + std::to_string(bad),
+                                               "numbered 0 to 5"}));
         }
     }
 }
@@ -353,7 +364,8 @@ TEST(MeshIo, ObjNegativeIndicesCountBackFromTheFace)
     EXPECT_EQ(mesh.triangles[0], (Triangle{0, 1, 2}));
     EXPECT_EQ(mesh.triangles[1], (Triangle{0, 2, 3}));
     test::writeTextFile(dir.path("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 -5\n");
-    EXPECT_TRUE(mentions(readError(dir.path("bad.obj")), {"face 1 (line 5)", "vertex -5", "only 4 vertices precede it"}));
+    EXPECT_TRUE(
+        mentions(readError(dir.path("bad.obj")), {"face 1 (line 5)", "vertex -5", "only 4 vertices precede it"}));
 }
 
 TEST(MeshIo, FacesOfFewerThanThreeVerticesAreRefused)
@@ -366,7 +378,8 @@ TEST(MeshIo, FacesOfFewerThanThreeVerticesAreRefused)
         Faces faces = kOctahedronFaces;
         faces[2] = {1, 3};
         test::writeMeshFile(path, kind, kOctahedronVertices, faces);
-        EXPECT_TRUE(mentions(readError(path), {kind == MeshFile::Obj ? "face 3" : "face 2", "2 vertices", "at least 3"}));
+        EXPECT_TRUE(
+            mentions(readError(path), {kind == MeshFile::Obj ? "face 3" : "face 2", "2 vertices", "at least 3"}));
     }
 }
 
@@ -384,7 +397,8 @@ TEST(MeshIo, PolygonsBecomeFans)
 TEST(MeshIo, TruncatedFilesAreRefused)
 {
     TempDir dir;
-    for (MeshFile kind : {MeshFile::PlyBinary, MeshFile::PlyAscii, MeshFile::Off, MeshFile::StlBinary, MeshFile::StlAscii}) {
+    for (MeshFile kind :
+         {MeshFile::PlyBinary, MeshFile::PlyAscii, MeshFile::Off, MeshFile::StlBinary, MeshFile::StlAscii}) {
         SCOPED_TRACE(test::nameOf(kind));
         const std::string path = dir.path(test::nameOf(kind) + test::extensionOf(kind));
         test::writeMeshFile(path, kind, kOctahedronVertices, kOctahedronFaces);
@@ -444,9 +458,11 @@ TEST(MeshIo, MalformedFilesNameTheirFirstBadToken)
     }
     test::writeTextFile(dir.path("b.off"), "OFF BINARY\n");
     EXPECT_TRUE(mentions(readError(dir.path("b.off")), {"binary OFF is not supported"}));
-    test::writeTextFile(dir.path("h.ply"), "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nend_header\n0\n");
+    test::writeTextFile(dir.path("h.ply"),
+                        "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nend_header\n0\n");
     EXPECT_TRUE(mentions(readError(dir.path("h.ply")), {"no property 'y'"}));
-    test::writeTextFile(dir.path("c.ply"), "ply\nformat ascii 1.0\nelement vertex 1\n\x1b[2Jproperty double x\nend_header\n");
+    test::writeTextFile(dir.path("c.ply"),
+                        "ply\nformat ascii 1.0\nelement vertex 1\n\x1b[2Jproperty double x\nend_header\n");
     EXPECT_TRUE(mentions(readError(dir.path("c.ply")), {"line 4"})); // the escape is not passed on
     EXPECT_EQ(readError(dir.path("c.ply")).find('\x1b'), std::string::npos);
 }

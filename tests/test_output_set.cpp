@@ -21,7 +21,10 @@ using pipetile::test::TempDir;
 
 namespace {
 
-void put(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+void put(const std::string& path, const std::string& text)
+{
+    std::ofstream(path, std::ios::binary) << text;
+}
 
 std::string errorOf(const std::function<void()>& f)
 {
@@ -50,7 +53,8 @@ TEST(OutputSet, CommitReplacesEveryTargetAndLeavesNothingElse)
         EXPECT_NE(test::folderBytes(dir.path("")).at(".a.txt.pipetile-lock").find("pid "), std::string::npos);
         set.commit();
     }
-    EXPECT_EQ(test::folderBytes(dir.path("")), (std::map<std::string, std::string>{{"a.txt", "new a"}, {"b.txt", "new b"}}));
+    EXPECT_EQ(test::folderBytes(dir.path("")),
+              (std::map<std::string, std::string>{{"a.txt", "new a"}, {"b.txt", "new b"}}));
 }
 
 TEST(OutputSet, UncommittedSetLeavesTheFolderAsItWas)
@@ -110,7 +114,8 @@ TEST(OutputSet, AFailedRenameMidSequenceRestoresTheTargetsBefore)
         set.write(dir.path(name), [&](std::ostream& out) { out << "new " << name; });
     const std::string message = errorOf([&] { set.commit(); });
     EXPECT_NE(message.find("c.txt': cannot replace it, it is a folder"), std::string::npos) << message;
-    EXPECT_NE(message.find("nothing of this run was kept, the earlier files are as they were"), std::string::npos) << message;
+    EXPECT_NE(message.find("nothing of this run was kept, the earlier files are as they were"), std::string::npos)
+        << message;
     auto after = test::folderBytes(dir.path(""));
     after.erase(".a.txt.pipetile-lock"), after.erase(".b.txt.pipetile-lock"), after.erase(".c.txt.pipetile-lock"),
         after.erase(".d.txt.pipetile-lock"); // held until the set is gone
@@ -129,7 +134,8 @@ TEST(OutputSet, StaleTemporariesOfItsOwnTargetsAreRemovedAndNoOthers)
     put(dir.path("a.txt.pipetile-tmp"), "not hidden: not pipetile's");
     {
         OutputSet set({dir.path("a.txt")});
-        EXPECT_EQ(set.staleRemoved(), (std::vector<std::string>{dir.path(".a.txt.pipetile-tmp"), dir.path(".a.txt.pipetile-old")}));
+        EXPECT_EQ(set.staleRemoved(),
+                  (std::vector<std::string>{dir.path(".a.txt.pipetile-tmp"), dir.path(".a.txt.pipetile-old")}));
     }
     EXPECT_EQ(dir.files(), (std::vector<std::string>{".x.txt.pipetile-tmp", "a.txt", "a.txt.pipetile-tmp"}));
     EXPECT_EQ(test::folderBytes(dir.path("")).at("a.txt"), "old a");
@@ -156,15 +162,17 @@ TEST(OutputSet, ObsoleteFilesGoWithTheCommitAndNoOthers)
     TempDir dir;
     for (const char* name : {"m_L0.ply", "m_L1.ply", "m_L2.ply", "m_L3.ply", "m_L2.obj"}) put(dir.path(name), "old");
     OutputSet set({dir.path("m_L0.ply"), dir.path("m_L1.ply")}, "", {dir.path("m_L2.ply"), dir.path("m_L3.ply")});
-    for (const char* name : {"m_L0.ply", "m_L1.ply"}) set.write(dir.path(name), [](std::ostream& out) { out << "new"; });
+    for (const char* name : {"m_L0.ply", "m_L1.ply"})
+        set.write(dir.path(name), [](std::ostream& out) { out << "new"; });
     EXPECT_THROW(set.write(dir.path("m_L2.ply"), [](std::ostream& out) { out << "new"; }), UsageError);
     EXPECT_EQ(test::folderBytes(dir.path("")).at("m_L3.ply"), "old");
     set.commit();
     auto after = test::folderBytes(dir.path(""));
-    for (const char* lock : {".m_L0.ply.pipetile-lock", ".m_L1.ply.pipetile-lock", ".m_L2.ply.pipetile-lock",
-                             ".m_L3.ply.pipetile-lock"})
+    for (const char* lock :
+         {".m_L0.ply.pipetile-lock", ".m_L1.ply.pipetile-lock", ".m_L2.ply.pipetile-lock", ".m_L3.ply.pipetile-lock"})
         EXPECT_EQ(after.erase(lock), 1u) << lock; // held until the set is gone
-    EXPECT_EQ(after, (std::map<std::string, std::string>{{"m_L0.ply", "new"}, {"m_L1.ply", "new"}, {"m_L2.obj", "old"}}));
+    EXPECT_EQ(after,
+              (std::map<std::string, std::string>{{"m_L0.ply", "new"}, {"m_L1.ply", "new"}, {"m_L2.obj", "old"}}));
 }
 
 TEST(OutputSet, ObsoleteFilesComeBackWhenTheCommitFails)

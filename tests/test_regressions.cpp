@@ -180,8 +180,8 @@ TEST(Regressions, RayAlongAPolygonSegmentCrossesItOnTheSegment)
             for (std::size_t k = 1; k < xs.size(); ++k) ties |= xs[k].crackT - xs[k - 1].crackT <= 1e-9 * xs[k].crackT;
             for (std::size_t k = 0; k < xs.size() && !ties; ++k)
                 EXPECT_EQ(xs[k].kind == CrossingKind::InOut, k % 2 == 0)
-                    << "level " << level << ", ray " << xs[k].ray << ", crossing " << k
-                    << " from the centre should be " << (k % 2 == 0 ? "InOut" : "OutIn");
+                    << "level " << level << ", ray " << xs[k].ray << ", crossing " << k << " from the centre should be "
+                    << (k % 2 == 0 ? "InOut" : "OutIn");
         }
     }
 }
@@ -231,7 +231,8 @@ TEST(Regressions, BallsFarApartMeshQuicklyOrAreRefused)
     expectErrorOrSuccessWithin(30, 0, [] {
         openvdb::initialize();
         auto a = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(4.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
-        auto b = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(4.0f, openvdb::Vec3f(1e6f, 1e6f, 0.0f), 1.0f, 3.0f);
+        auto b = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(4.0f, openvdb::Vec3f(1e6f, 1e6f, 0.0f), 1.0f,
+                                                                          3.0f);
         a->tree().merge(b->tree());
         a->setName("balls");
         const Volume volume = volumeFromGrid(a, {}, "far-apart-balls");
@@ -267,7 +268,8 @@ TEST(Regressions, AbsurdMetadataSizesAreAnErrorEvenShortOfMemory)
     // (TypedMetadata<std::string>::readValue), so readVolume peaks at about 3 GB and 3.6 s before
     // it reports the file as damaged. Until that is bounded, pin the answer under a memory limit
     // of 1 GiB: the allocations fail and readVolume still throws pipetile::Error.
-    expectErrorOrSuccessWithin(30, std::size_t(1) << 30, [] { readVolume(fuzzInput("openvdb", "metadata_sizes_3gb.vdb")); });
+    expectErrorOrSuccessWithin(30, std::size_t(1) << 30,
+                               [] { readVolume(fuzzInput("openvdb", "metadata_sizes_3gb.vdb")); });
 #endif
 }
 

@@ -72,10 +72,13 @@ double bruteForceMinimum(const std::function<double(double)>& f, double sMin, do
 /// The phantom's geometry, written out again from the issue: centre line and radius.
 glm::dvec3 phantomCentre(double s)
 {
-    return {128.0 + 30.0 * std::sin(2.0 * kPi * 1.5 * s / 512.0),
-            128.0 + 20.0 * std::sin(2.0 * kPi * s / 512.0 + 0.7), s};
+    return {128.0 + 30.0 * std::sin(2.0 * kPi * 1.5 * s / 512.0), 128.0 + 20.0 * std::sin(2.0 * kPi * s / 512.0 + 0.7),
+            s};
 }
-double phantomRadius(double s) { return 26.0 + 5.0 * std::sin(2.0 * kPi * s / 256.0); }
+double phantomRadius(double s)
+{
+    return 26.0 + 5.0 * std::sin(2.0 * kPi * s / 256.0);
+}
 constexpr double kPhantomSMin = 40.0, kPhantomSMax = 472.0;
 
 glm::dvec3 helixCentre(double s)
@@ -136,9 +139,10 @@ TEST(Samples, ListHasTheIssuesSamplesPhantomFirst)
     // The rest are the shapes of known topology of TOPOLOGY.md's "What to check", then the
     // cases found since.
     const std::vector<std::string> expected = {
-        "phantom", "straight", "helix", "bean", "hollow", "ybranch", "two-tubes", "tbranch",
-        "trifurcation", "ubend", "xcross", "torus-flat", "torus-standing", "two-tori", "hollow-y",
-        "lumen-rod", "tank", "tree", "serpentine", "oblique", "parting", "touching-blocks", "steps", "pillars"};
+        "phantom",         "straight",     "helix",  "bean",   "hollow",     "ybranch",        "two-tubes",
+        "tbranch",         "trifurcation", "ubend",  "xcross", "torus-flat", "torus-standing", "two-tori",
+        "hollow-y",        "lumen-rod",    "tank",   "tree",   "serpentine", "oblique",        "parting",
+        "touching-blocks", "steps",        "pillars"};
     std::vector<std::string> names;
     for (const SampleInfo& info : sampleList()) {
         names.push_back(info.name);
@@ -153,8 +157,8 @@ TEST(Samples, ListHasTheIssuesSamplesPhantomFirst)
 
 TEST(Samples, UnknownNameThrowsAndListsTheNames)
 {
-    for (const auto& call : std::vector<std::function<void()>>{
-             [] { sampleDistance("sphere"); }, [] { makeSample("sphere"); }}) {
+    for (const auto& call :
+         std::vector<std::function<void()>>{[] { sampleDistance("sphere"); }, [] { makeSample("sphere"); }}) {
         try {
             call();
             ADD_FAILURE() << "no exception for an unknown sample";
@@ -172,12 +176,12 @@ TEST(Samples, StraightIsTheExactCapsule)
 {
     const DistanceFunction phi = sampleDistance("straight");
     // Axis through (32, 32), z in [16, 112], radius 10.
-    EXPECT_DOUBLE_EQ(phi({32, 32, 64}), -10.0);  // on the axis: a radius deep
-    EXPECT_DOUBLE_EQ(phi({32, 32, 16}), -10.0);  // at an end of the axis segment
-    EXPECT_DOUBLE_EQ(phi({47, 32, 64}), 5.0);    // 15 from the axis, 5 past the side
-    EXPECT_DOUBLE_EQ(phi({32, 32, 125}), 3.0);   // 13 above the top end point
-    EXPECT_DOUBLE_EQ(phi({38, 32, 120}), 0.0);   // (6, 0, 8) from the top end: 10, on the cap
-    EXPECT_DOUBLE_EQ(phi({32, 32, 6}), 0.0);     // bottom of the lower cap
+    EXPECT_DOUBLE_EQ(phi({32, 32, 64}), -10.0); // on the axis: a radius deep
+    EXPECT_DOUBLE_EQ(phi({32, 32, 16}), -10.0); // at an end of the axis segment
+    EXPECT_DOUBLE_EQ(phi({47, 32, 64}), 5.0);   // 15 from the axis, 5 past the side
+    EXPECT_DOUBLE_EQ(phi({32, 32, 125}), 3.0);  // 13 above the top end point
+    EXPECT_DOUBLE_EQ(phi({38, 32, 120}), 0.0);  // (6, 0, 8) from the top end: 10, on the cap
+    EXPECT_DOUBLE_EQ(phi({32, 32, 6}), 0.0);    // bottom of the lower cap
 }
 
 TEST(Samples, TwoTubesAreTwoExactCapsules)
@@ -226,8 +230,8 @@ TEST(Samples, HelixDistanceMatchesBruteForceTo1e6)
     std::uniform_real_distribution<double> x(0.0, 96.0), z(0.0, 160.0);
     for (int n = 0; n < 400; ++n) {
         const glm::dvec3 p(x(random), x(random), z(random));
-        const double expected = bruteForceMinimum(
-            [&](double s) { return glm::length(p - helixCentre(s)) - 6.0; }, 16.0, 144.0);
+        const double expected =
+            bruteForceMinimum([&](double s) { return glm::length(p - helixCentre(s)) - 6.0; }, 16.0, 144.0);
         ASSERT_NEAR(phi(p), expected, 1e-6) << p.x << ", " << p.y << ", " << p.z;
     }
 }
@@ -240,10 +244,8 @@ TEST(Samples, PhantomDistanceAtPointsWorkedOutByHand)
     EXPECT_NEAR(phi(phantomCentre(256.0)), -26.0, 1e-9);
     // 5 below the bottom ball (s = 40) and 5 above the top one (s = 472): any other ball is at
     // least |s - s_end| farther along z and at most 0.123 |s - s_end| larger.
-    const glm::dvec3 bottom =
-        phantomCentre(kPhantomSMin) - glm::dvec3(0, 0, phantomRadius(kPhantomSMin) + 5.0);
-    const glm::dvec3 top =
-        phantomCentre(kPhantomSMax) + glm::dvec3(0, 0, phantomRadius(kPhantomSMax) + 5.0);
+    const glm::dvec3 bottom = phantomCentre(kPhantomSMin) - glm::dvec3(0, 0, phantomRadius(kPhantomSMin) + 5.0);
+    const glm::dvec3 top = phantomCentre(kPhantomSMax) + glm::dvec3(0, 0, phantomRadius(kPhantomSMax) + 5.0);
     EXPECT_NEAR(phi(bottom), 5.0, 1e-9);
     EXPECT_NEAR(phi(top), 5.0, 1e-9);
     // The radius breathes between 21 and 31: at s = 64 it is 31, at s = 192 it is 21.
@@ -265,8 +267,7 @@ TEST(Samples, PhantomDistanceMatchesBruteForceTo1e4)
             p = phantomCentre(s) + radius * glm::dvec3(std::cos(angle), std::sin(angle), 0.0);
         }
         const double expected = bruteForceMinimum(
-            [&](double s) { return glm::length(p - phantomCentre(s)) - phantomRadius(s); },
-            kPhantomSMin, kPhantomSMax);
+            [&](double s) { return glm::length(p - phantomCentre(s)) - phantomRadius(s); }, kPhantomSMin, kPhantomSMax);
         ASSERT_NEAR(phi(p), expected, 1e-4) << p.x << ", " << p.y << ", " << p.z;
     }
 }
@@ -277,8 +278,7 @@ TEST(Samples, BeanDistanceAtPointsWorkedOutByHand)
     // Mid-plane z = 48, where the rounded extrusion leaves the 2D distance unchanged.
     EXPECT_NEAR(phi({48, 66, 48}), -9.0, 1e-12); // top of the arc (radius 18): thickness 9 deep
     EXPECT_NEAR(phi({48, 48, 48}), 9.0, 1e-12);  // centre of the C: 18 - 9 from the inner wall
-    const glm::dvec3 armEnd(48.0 + 18.0 * std::sin(kBeanHalfAngle),
-                            48.0 + 18.0 * std::cos(kBeanHalfAngle), 48.0);
+    const glm::dvec3 armEnd(48.0 + 18.0 * std::sin(kBeanHalfAngle), 48.0 + 18.0 * std::cos(kBeanHalfAngle), 48.0);
     EXPECT_NEAR(phi(armEnd), -9.0, 1e-12);
     // Across the opening, 18 below the centre: both arm ends are 36 cos(alpha/2) away.
     EXPECT_NEAR(phi({48, 30, 48}), 36.0 * std::cos(kBeanHalfAngle / 2.0) - 9.0, 1e-12);
@@ -313,8 +313,7 @@ TEST(Samples, BeanCentroidIsInsideButRaysFromItCrossThreeTimes)
     const double a = kBeanHalfAngle;
     EXPECT_NEAR(area, 648.0 * a + 81.0 * kPi, 0.05);
     EXPECT_NEAR(centroid.x, 48.0, 1e-3); // the section is symmetric about x = 48
-    const double closedFormY =
-        48.0 + (11664.0 * std::sin(a) + 1458.0 * kPi * std::cos(a)) / (648.0 * a + 81.0 * kPi);
+    const double closedFormY = 48.0 + (11664.0 * std::sin(a) + 1458.0 * kPi * std::cos(a)) / (648.0 * a + 81.0 * kPi);
     EXPECT_NEAR(centroid.y, closedFormY, 2e-3);
 
     // Inside with a margin of 2 voxels: the distance is exact, so -phi is the margin.
@@ -399,9 +398,9 @@ TEST(Samples, EveryGridIsANarrowBandLevelSetClosedInsideItsDims)
 TEST(Samples, ClosedFormGridsHoldTheClampedDistanceAtEveryVoxel)
 {
     // Every voxel, so no band voxel is missed and every skipped block reads the right sign.
-    for (const char* name : {"straight", "bean", "hollow", "ybranch", "two-tubes", "tbranch",
-                             "trifurcation", "ubend", "xcross", "torus-flat", "torus-standing",
-                             "two-tori", "hollow-y", "lumen-rod", "tank", "tree", "serpentine"}) {
+    for (const char* name :
+         {"straight", "bean", "hollow", "ybranch", "two-tubes", "tbranch", "trifurcation", "ubend", "xcross",
+          "torus-flat", "torus-standing", "two-tori", "hollow-y", "lumen-rod", "tank", "tree", "serpentine"}) {
         expectGridIsClampedDistance(name, 1);
     }
 }
@@ -454,8 +453,7 @@ TEST(Samples, GenerationIsTheSameForAnyThreadCount)
         const auto* other = b.probeConstLeaf(leaf->origin());
         ASSERT_NE(other, nullptr) << leaf->origin();
         EXPECT_TRUE(leaf->getValueMask() == other->getValueMask()) << leaf->origin();
-        EXPECT_TRUE(std::equal(leaf->buffer().data(), leaf->buffer().data() + leaf->SIZE,
-                               other->buffer().data()))
+        EXPECT_TRUE(std::equal(leaf->buffer().data(), leaf->buffer().data() + leaf->SIZE, other->buffer().data()))
             << leaf->origin();
     }
 }
@@ -480,9 +478,7 @@ TEST(Samples, LevelSetFromDistanceWorksInWorldUnits)
 {
     // A sphere of radius 3 world units around (5, 5, 5) on voxels of 0.5: index centre (10, 10,
     // 10), radius 6 voxels; the background is 3 voxels = 1.5 world units.
-    const DistanceFunction sphere = [](const glm::dvec3& p) {
-        return glm::length(p - glm::dvec3(5.0)) - 3.0;
-    };
+    const DistanceFunction sphere = [](const glm::dvec3& p) { return glm::length(p - glm::dvec3(5.0)) - 3.0; };
     const Volume volume = levelSetFromDistance(sphere, glm::ivec3(20), 0.5, "sphere");
     const openvdb::FloatGrid& grid = gridOf(volume);
     EXPECT_EQ(grid.voxelSize(), openvdb::Vec3d(0.5));
@@ -520,9 +516,7 @@ TEST(Samples, LevelSetFromDistanceStopsAtTheGridsDims)
 
 TEST(Samples, LevelSetFromDistanceRejectsBadInput)
 {
-    const DistanceFunction sphere = [](const glm::dvec3& p) {
-        return glm::length(p - glm::dvec3(8.0)) - 4.0;
-    };
+    const DistanceFunction sphere = [](const glm::dvec3& p) { return glm::length(p - glm::dvec3(8.0)) - 4.0; };
     EXPECT_THROW(levelSetFromDistance(sphere, glm::ivec3(0, 16, 16), 1.0, "empty"), Error);
     EXPECT_THROW(levelSetFromDistance(sphere, glm::ivec3(16), 0.0, "flat"), Error);
     EXPECT_THROW(levelSetFromDistance(sphere, glm::ivec3(16), std::nan(""), "nan size"), Error);
@@ -581,8 +575,8 @@ TEST(Samples, KnownTopologyMatchesTheIsosurface)
         for (Triangle& triangle : mesh.triangles) std::swap(triangle[1], triangle[2]);
         const Topology t = checkTopology(mesh);
         EXPECT_TRUE(t.closed()) << t.boundaryEdges << " boundary edges";
-        EXPECT_TRUE(t.manifold()) << t.nonManifoldEdges << " non-manifold edges, "
-                                  << t.nonManifoldVertices << " non-manifold vertices";
+        EXPECT_TRUE(t.manifold()) << t.nonManifoldEdges << " non-manifold edges, " << t.nonManifoldVertices
+                                  << " non-manifold vertices";
         EXPECT_TRUE(t.oriented()) << t.misorientedEdges << " misoriented edges";
         EXPECT_GT(t.signedVolume, 0.0); // outward: the outer shells enclose the voids
         EXPECT_EQ(t.euler, info.euler);
@@ -636,8 +630,8 @@ TEST(Samples, VoidsAreInsideTheirSolids)
     // cavity and the outer wall is inside, and the two surfaces are apart (checked as 2
     // components in KnownTopologyMatchesTheIsosurface).
     const DistanceFunction rod = sampleDistance("lumen-rod");
-    EXPECT_DOUBLE_EQ(rod({32, 32, 64}), 4.0);   // channel axis: radius 4 to its wall
-    EXPECT_DOUBLE_EQ(rod({40, 32, 64}), -4.0);  // middle of the wall (4 to 12)
+    EXPECT_DOUBLE_EQ(rod({32, 32, 64}), 4.0);  // channel axis: radius 4 to its wall
+    EXPECT_DOUBLE_EQ(rod({40, 32, 64}), -4.0); // middle of the wall (4 to 12)
     // On the rod axis 14 below the channel: 10 to the channel's cap, nearer than the side (12).
     EXPECT_DOUBLE_EQ(rod({32, 32, 30}), -10.0);
     const DistanceFunction tank = sampleDistance("tank");

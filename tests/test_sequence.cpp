@@ -29,7 +29,8 @@ void writeSphereFrame(const std::string& path, int frame)
 {
     openvdb::initialize();
     const float radius = 4.0f + 0.25f * static_cast<float>(frame - kFirst);
-    openvdb::FloatGrid::Ptr grid = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(radius, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+    openvdb::FloatGrid::Ptr grid =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(radius, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
     grid->setName("sphere");
     openvdb::io::File(path).write({grid});
 }
@@ -99,7 +100,8 @@ TEST(Sequence, FrameRangesIncludeBothEndsAndStep)
 TEST(Sequence, ExistingFramesAreTheFilesSpelledAsThePatternSpellsThem)
 {
     TempDir dir;
-    for (const char* name : {"seq.0003.vdb", "seq.0010.vdb", "seq.12345.vdb", "seq.12.vdb", "seq.0004.vdb.bak", "other.0005.vdb"})
+    for (const char* name :
+         {"seq.0003.vdb", "seq.0010.vdb", "seq.12345.vdb", "seq.12.vdb", "seq.0004.vdb.bak", "other.0005.vdb"})
         test::writeTextFile(dir.path(name), "");
     // seq.12.vdb is not four digits, the .bak and other.* are other names.
     EXPECT_EQ(FramePattern::parse(dir.path("seq.####.vdb"))->existingFrames(), (std::vector<int>{3, 10, 12345}));
@@ -112,16 +114,18 @@ TEST(CliSequence, EveryFrameEqualsItsSingleFileRunByteForByte)
     writeSequence(dir);
     std::filesystem::create_directory(dir.path("single"));
     // No --frames: the 24 files that match. $F4 for the input, %04d for the outputs.
-    const test::CliResult r = runCli("mesh '" + dir.path("seq.$F4.vdb") + "' -o '" + dir.path("out/seq.%04d.ply") +
-                                     "' --report '" + dir.path("out/seq.####.json") + "' --summary '" +
-                                     dir.path("summary.json") + "'");
+    const test::CliResult r =
+        runCli("mesh '" + dir.path("seq.$F4.vdb") + "' -o '" + dir.path("out/seq.%04d.ply") + "' --report '" +
+               dir.path("out/seq.####.json") + "' --summary '" + dir.path("summary.json") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     long long triangles = 0;
     for (int f = kFirst; f < kFirst + kFrames; ++f) {
         SCOPED_TRACE("frame " + std::to_string(f));
         const std::string frame = std::to_string(f);
-        ASSERT_EQ(runCli("mesh '" + dir.path("seq." + frame + ".vdb") + "' -o '" + dir.path("single/seq." + frame + ".ply") +
-                         "'").exitCode, 0);
+        ASSERT_EQ(runCli("mesh '" + dir.path("seq." + frame + ".vdb") + "' -o '" +
+                         dir.path("single/seq." + frame + ".ply") + "'")
+                      .exitCode,
+                  0);
         for (int level = 0; level < 4; ++level) {
             const std::string batch = fileBytes(levelFile(dir, "out", f, level));
             EXPECT_FALSE(batch.empty());
@@ -162,7 +166,8 @@ TEST(CliSequence, ADamagedAndAMissingFrameAreNamedAndTheOthersWritten)
     std::vector<std::string> expected;
     for (int f = kFirst; f < kFirst + kFrames; ++f)
         if (f != 1005 && f != 1010)
-            for (int level = 0; level < 4; ++level) expected.push_back("seq." + std::to_string(f) + "_L" + std::to_string(level) + ".ply");
+            for (int level = 0; level < 4; ++level)
+                expected.push_back("seq." + std::to_string(f) + "_L" + std::to_string(level) + ".ply");
     std::sort(expected.begin(), expected.end());
     std::vector<std::string> written;
     for (const auto& entry : std::filesystem::directory_iterator(dir.path("out")))
@@ -187,7 +192,8 @@ TEST(CliSequence, SkipExistingRerunsNothingAndResumesAStoppedRun)
     ASSERT_EQ(runCli(args).exitCode, 0);
     // Every output is committed by a rename, so a file written again is a new inode.
     std::map<std::string, ino_t> inodes;
-    for (const auto& entry : std::filesystem::directory_iterator(dir.path("out"))) inodes[entry.path()] = inode(entry.path());
+    for (const auto& entry : std::filesystem::directory_iterator(dir.path("out")))
+        inodes[entry.path()] = inode(entry.path());
     EXPECT_EQ(inodes.size(), static_cast<std::size_t>(kFrames * 5)); // 4 levels and a report per frame
 
     const test::CliResult again = runCli(args);
@@ -216,10 +222,10 @@ TEST(CliSequence, OutputsWithoutAFrameNumberAreUsageErrors)
     TempDir dir;
     writeSequence(dir);
     const std::string input = "'" + dir.path("seq.####.vdb") + "'";
-    for (const std::string& args : {"mesh " + input + " -o '" + dir.path("out/one.ply") + "'",
-                                    "mesh " + input + " -o '" + dir.path("out/s.####.ply") + "' --report '" + dir.path("r.json") + "'",
-                                    "mesh " + input + " --frames 9-3",
-                                    "mesh '" + dir.path("seq.1001.vdb") + "' --frames 1-3"}) {
+    for (const std::string& args :
+         {"mesh " + input + " -o '" + dir.path("out/one.ply") + "'",
+          "mesh " + input + " -o '" + dir.path("out/s.####.ply") + "' --report '" + dir.path("r.json") + "'",
+          "mesh " + input + " --frames 9-3", "mesh '" + dir.path("seq.1001.vdb") + "' --frames 1-3"}) {
         const test::CliResult r = runCli(args);
         EXPECT_EQ(r.exitCode, 2) << args << ": " << r.err;
         EXPECT_NE(r.err.find("usage error"), std::string::npos) << r.err;

@@ -30,7 +30,9 @@ Volume anisotropicSphere()
     for (int i = 0; i <= 40; ++i)
         for (int j = 0; j <= 40; ++j)
             for (int k = 0; k <= 16; ++k) {
-                const double d = std::sqrt((i - 20.0) * (i - 20.0) + (j - 20.0) * (j - 20.0) + (2.5 * k - 20.0) * (2.5 * k - 20.0)) - 10.0;
+                const double d =
+                    std::sqrt((i - 20.0) * (i - 20.0) + (j - 20.0) * (j - 20.0) + (2.5 * k - 20.0) * (2.5 * k - 20.0)) -
+                    10.0;
                 if (std::abs(d) < 3.0) acc.setValue(openvdb::Coord(i, j, k), static_cast<float>(d));
             }
     openvdb::tools::signedFloodFill(grid->tree());
@@ -103,7 +105,8 @@ TEST(Slicer, FarApartSpheresCostTheirOwnSlicesNotTheGap)
     // 0 (w = -7 .. 9, the box starting at -7), 10 about one at 1e8 (c - 11 .. c + 7, the box ending
     // at c + 7), and for the pair at +-1.5e9 9 + 10 as well. The gap once cost 5e7 planes (70 s,
     // 5.7 GB), 2e9 ran out of memory, +-1.5e9 overflowed.
-    for (const auto& [zA, zB] : std::vector<std::pair<int, int>>{{0, 100000000}, {0, 2000000000}, {-1500000000, 1500000000}}) {
+    for (const auto& [zA, zB] :
+         std::vector<std::pair<int, int>>{{0, 100000000}, {0, 2000000000}, {-1500000000, 1500000000}}) {
         SCOPED_TRACE(std::to_string(zA) + " and " + std::to_string(zB));
         test::TempDir dir;
         test::writeFarSpheresVdb(dir.path("far.vdb"), zA, zB);

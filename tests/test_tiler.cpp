@@ -35,14 +35,15 @@ TEST(Tiler, AmbiguousAndFoldedContoursStillGiveClosedStrips)
 {
     // Every contour that winds once, whatever its excursions, tiles as a closed m + n strip.
     const std::vector<std::string> contours = {
-        "F F F F", "F U_I U_O F F F", "F D_I D_O F F F", "F U_I B U_O F F F", "F F F U_I U_O F",
-        "D_I D_O F F F F", "F F B F F F",
+        "F F F F",         "F U_I U_O F F F", "F D_I D_O F F F", "F U_I B U_O F F F",
+        "F F F U_I U_O F", "D_I D_O F F F F", "F F B F F F",
     };
     for (const std::string& sa : contours)
         for (const std::string& sb : contours) {
             SCOPED_TRACE(sa + " | " + sb);
             const auto a = test::parseEdges(sa), b = test::parseEdges(sb);
-            EXPECT_TRUE(test::isClosedStrip(tileBand(a, b), static_cast<std::uint32_t>(a.size()), static_cast<std::uint32_t>(b.size())));
+            EXPECT_TRUE(test::isClosedStrip(tileBand(a, b), static_cast<std::uint32_t>(a.size()),
+                                            static_cast<std::uint32_t>(b.size())));
         }
 }
 

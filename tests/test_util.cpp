@@ -54,7 +54,8 @@ TempDir::~TempDir()
 std::vector<std::string> TempDir::files() const
 {
     std::vector<std::string> names;
-    for (const auto& entry : std::filesystem::directory_iterator(mPath)) names.push_back(entry.path().filename().string());
+    for (const auto& entry : std::filesystem::directory_iterator(mPath))
+        names.push_back(entry.path().filename().string());
     std::sort(names.begin(), names.end());
     return names;
 }
@@ -69,15 +70,20 @@ std::string slurp(const std::string& path)
 }
 } // namespace
 
-CliResult runCli(const std::string& args) { return CliProcess(args).wait(); }
+CliResult runCli(const std::string& args)
+{
+    return CliProcess(args).wait();
+}
 
 CliProcess::CliProcess(const std::string& args, const std::string& prefix)
 {
     static std::atomic<int> counter{0};
     mBase = (std::filesystem::temp_directory_path() /
-             ("pipetile_cli_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
+             ("pipetile_cli_" + std::to_string(::getpid()) + "_" + std::to_string(counter++)))
+                .string();
     // exec: the shell becomes pipetile, so pid() is pipetile's own.
-    const std::string command = prefix + " exec '" + PIPETILE_CLI + "' " + args + " > '" + mBase + ".out' 2> '" + mBase + ".err'";
+    const std::string command =
+        prefix + " exec '" + PIPETILE_CLI + "' " + args + " > '" + mBase + ".out' 2> '" + mBase + ".err'";
     mPid = ::fork();
     if (mPid == 0) {
         // As from a terminal: signals at their defaults, whatever the test runner set.
@@ -121,7 +127,8 @@ CliResult runShell(const std::string& commandLine)
 {
     static std::atomic<int> counter{0};
     const std::string base = (std::filesystem::temp_directory_path() /
-                              ("pipetile_sh_" + std::to_string(::getpid()) + "_" + std::to_string(counter++))).string();
+                              ("pipetile_sh_" + std::to_string(::getpid()) + "_" + std::to_string(counter++)))
+                                 .string();
     const std::string command = commandLine + " > '" + base + ".out' 2> '" + base + ".err'";
     const int status = std::system(command.c_str());
     CliResult result;
@@ -159,11 +166,15 @@ void SmallDisk::fill()
 {
     const int fd = ::open(path("filler").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     const std::vector<char> block(4096, 0);
-    while (::write(fd, block.data(), block.size()) > 0) {}
+    while (::write(fd, block.data(), block.size()) > 0) {
+    }
     ::close(fd);
 }
 
-void SmallDisk::unfill() { std::filesystem::remove(path("filler")); }
+void SmallDisk::unfill()
+{
+    std::filesystem::remove(path("filler"));
+}
 
 std::vector<glm::dvec3> plyDoubleVertices(const std::string& path)
 {
@@ -206,8 +217,10 @@ std::map<std::string, std::string> folderBytes(const std::string& folder)
     std::string differ;
     for (const auto& [name, bytes] : expected) {
         const auto it = actual.find(name);
-        if (it == actual.end()) differ += " " + name + " (missing)";
-        else if (it->second != bytes) differ += " " + name + " (changed)";
+        if (it == actual.end())
+            differ += " " + name + " (missing)";
+        else if (it->second != bytes)
+            differ += " " + name + " (changed)";
     }
     for (const auto& entry : actual)
         if (!expected.count(entry.first)) differ += " " + entry.first + " (extra)";
@@ -225,13 +238,16 @@ const Volume& cachedSample(const std::string& name)
     return it->second;
 }
 
-std::string realData(const std::string& file) { return std::string(PIPETILE_REAL_DATA) + "/" + file; }
+std::string realData(const std::string& file)
+{
+    return std::string(PIPETILE_REAL_DATA) + "/" + file;
+}
 
 std::vector<EdgeType> parseEdges(const std::string& names)
 {
-    static const std::map<std::string, EdgeType> types = {
-        {"F", EdgeType::Forward}, {"B", EdgeType::Backward}, {"D_I", EdgeType::DownIn},
-        {"D_O", EdgeType::DownOut}, {"U_I", EdgeType::UpIn}, {"U_O", EdgeType::UpOut}};
+    static const std::map<std::string, EdgeType> types = {{"F", EdgeType::Forward},  {"B", EdgeType::Backward},
+                                                          {"D_I", EdgeType::DownIn}, {"D_O", EdgeType::DownOut},
+                                                          {"U_I", EdgeType::UpIn},   {"U_O", EdgeType::UpOut}};
     std::vector<EdgeType> edges;
     std::istringstream in(names);
     for (std::string token; in >> token;) edges.push_back(types.at(token));
@@ -251,7 +267,8 @@ std::vector<EdgeType> parseEdges(const std::string& names)
             if ((t[k] < m) == (t[(k + 1) % 3] < m)) ++contourEdges[{t[k], t[(k + 1) % 3]}];
     }
     for (std::uint32_t i = 0; i < m; ++i)
-        if (contourEdges[{i, (i + 1) % m}] != 1) return ::testing::AssertionFailure() << "edge " << i << " of A not used once";
+        if (contourEdges[{i, (i + 1) % m}] != 1)
+            return ::testing::AssertionFailure() << "edge " << i << " of A not used once";
     for (std::uint32_t j = 0; j < n; ++j)
         if (contourEdges[{m + (j + 1) % n, m + j}] != 1)
             return ::testing::AssertionFailure() << "edge " << j << " of B not used once";
@@ -259,7 +276,8 @@ std::vector<EdgeType> parseEdges(const std::string& names)
     auto spanning = [&](const Triangle& t) {
         std::set<std::pair<std::uint32_t, std::uint32_t>> s;
         for (int k = 0; k < 3; ++k)
-            if ((t[k] < m) != (t[(k + 1) % 3] < m)) s.insert({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
+            if ((t[k] < m) != (t[(k + 1) % 3] < m))
+                s.insert({std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3])});
         return s;
     };
     for (std::size_t k = 0; k < band.size(); ++k) {
@@ -267,8 +285,8 @@ std::vector<EdgeType> parseEdges(const std::string& names)
         int shared = 0;
         for (const auto& e : s) shared += static_cast<int>(next.count(e));
         if (shared != 1)
-            return ::testing::AssertionFailure() << "triangles " << k << " and " << (k + 1) % band.size() << " share "
-                                                 << shared << " spanning edges";
+            return ::testing::AssertionFailure()
+                   << "triangles " << k << " and " << (k + 1) % band.size() << " share " << shared << " spanning edges";
     }
     return ::testing::AssertionSuccess();
 }
@@ -320,17 +338,21 @@ const std::vector<MeshFile>& allMeshFiles()
 std::string extensionOf(MeshFile kind)
 {
     switch (kind) {
-    case MeshFile::PlyAscii: case MeshFile::PlyBinary: case MeshFile::PlyBinaryBigEndian: return ".ply";
+    case MeshFile::PlyAscii:
+    case MeshFile::PlyBinary:
+    case MeshFile::PlyBinaryBigEndian: return ".ply";
     case MeshFile::Obj: return ".obj";
     case MeshFile::Off: return ".off";
-    case MeshFile::StlAscii: case MeshFile::StlBinary: return ".stl";
+    case MeshFile::StlAscii:
+    case MeshFile::StlBinary: return ".stl";
     }
     return "";
 }
 
 std::string nameOf(MeshFile kind)
 {
-    static const char* kNames[] = {"PlyAscii", "PlyBinary", "PlyBinaryBigEndian", "Obj", "Off", "StlAscii", "StlBinary"};
+    static const char* kNames[] = {"PlyAscii", "PlyBinary", "PlyBinaryBigEndian", "Obj",
+                                   "Off",      "StlAscii",  "StlBinary"};
     return kNames[static_cast<int>(kind)];
 }
 
@@ -357,41 +379,56 @@ std::string plyFile(bool ascii, bool bigEndian, const std::vector<glm::dvec3>& v
                     const std::vector<std::vector<long long>>& faces)
 {
     std::string out = std::string("ply\nformat ") +
-                      (ascii ? "ascii" : bigEndian ? "binary_big_endian" : "binary_little_endian") + " 1.0\n" +
-                      "element vertex " + std::to_string(vertices.size()) +
+                      (ascii       ? "ascii"
+                       : bigEndian ? "binary_big_endian"
+                                   : "binary_little_endian") +
+                      " 1.0\n" + "element vertex " + std::to_string(vertices.size()) +
                       "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
                       std::to_string(faces.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
     for (const glm::dvec3& v : vertices) {
-        if (ascii) out += text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
-        else for (int axis = 0; axis < 3; ++axis) putBinary<double>(out, v[axis], bigEndian);
+        if (ascii)
+            out += text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
+        else
+            for (int axis = 0; axis < 3; ++axis) putBinary<double>(out, v[axis], bigEndian);
     }
     for (const std::vector<long long>& f : faces) {
-        if (ascii) out += std::to_string(f.size());
-        else putBinary<std::uint8_t>(out, static_cast<std::uint8_t>(f.size()), bigEndian);
+        if (ascii)
+            out += std::to_string(f.size());
+        else
+            putBinary<std::uint8_t>(out, static_cast<std::uint8_t>(f.size()), bigEndian);
         for (long long i : f) {
-            if (ascii) out += " " + std::to_string(i);
-            else putBinary<std::int32_t>(out, static_cast<std::int32_t>(i), bigEndian);
+            if (ascii)
+                out += " " + std::to_string(i);
+            else
+                putBinary<std::int32_t>(out, static_cast<std::int32_t>(i), bigEndian);
         }
         if (ascii) out += "\n";
     }
     return out;
 }
 
-std::string stlFile(bool ascii, const std::vector<glm::dvec3>& vertices, const std::vector<std::vector<long long>>& faces)
+std::string stlFile(bool ascii, const std::vector<glm::dvec3>& vertices,
+                    const std::vector<std::vector<long long>>& faces)
 {
     std::string out = ascii ? "solid test\n" : std::string(80, ' ');
     if (!ascii) putBinary<std::uint32_t>(out, static_cast<std::uint32_t>(faces.size()), false);
     for (const std::vector<long long>& f : faces) {
         if (f.size() != 3) throw std::invalid_argument("STL holds triangles only");
-        if (ascii) out += "  facet normal 0 0 0\n    outer loop\n";
-        else for (int k = 0; k < 3; ++k) putBinary<float>(out, 0.0f, false);
+        if (ascii)
+            out += "  facet normal 0 0 0\n    outer loop\n";
+        else
+            for (int k = 0; k < 3; ++k) putBinary<float>(out, 0.0f, false);
         for (long long i : f) {
             const glm::dvec3& v = vertices.at(static_cast<std::size_t>(i));
-            if (ascii) out += "      vertex " + text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
-            else for (int axis = 0; axis < 3; ++axis) putBinary<float>(out, static_cast<float>(v[axis]), false);
+            if (ascii)
+                out += "      vertex " + text(v.x) + " " + text(v.y) + " " + text(v.z) + "\n";
+            else
+                for (int axis = 0; axis < 3; ++axis) putBinary<float>(out, static_cast<float>(v[axis]), false);
         }
-        if (ascii) out += "    endloop\n  endfacet\n";
-        else putBinary<std::uint16_t>(out, 0, false);
+        if (ascii)
+            out += "    endloop\n  endfacet\n";
+        else
+            putBinary<std::uint16_t>(out, 0, false);
     }
     if (ascii) out += "endsolid test\n";
     return out;
@@ -474,14 +511,14 @@ void writeFarSpheresVdb(const std::string& path, int zA, int zB)
     openvdb::initialize();
     // One sphere at the origin, copied voxel by voxel to both places: building it at z = 1e9
     // directly would lose its shape to float precision.
-    const openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+    const openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
     auto grid = openvdb::FloatGrid::create(sphere->background());
     grid->setName("spheres");
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     auto accessor = grid->getAccessor();
     for (int z : {zA, zB})
-        for (auto it = sphere->cbeginValueOn(); it; ++it)
-            accessor.setValue(it.getCoord().offsetBy(0, 0, z), *it);
+        for (auto it = sphere->cbeginValueOn(); it; ++it) accessor.setValue(it.getCoord().offsetBy(0, 0, z), *it);
     openvdb::tools::signedFloodFill(grid->tree()); // the spheres' insides: negative, not background
     writeGridsVdb(path, {grid});
 }

@@ -57,15 +57,15 @@ public:
     ~CliProcess(); // kills the process if the test did not wait for it
     int pid() const { return mPid; }
     bool running();
-    CliResult wait();                 // exitCode -1 when a signal ended it, see signal()
+    CliResult wait(); // exitCode -1 when a signal ended it, see signal()
     int signal() const { return mSignal; }
 
 private:
     int mPid = -1;
     int mStatus = 0;
-    bool mReaped = false;             // running() saw it end
+    bool mReaped = false; // running() saw it end
     int mSignal = 0;
-    std::string mBase;                // where stdout and stderr go
+    std::string mBase; // where stdout and stderr go
 };
 
 /// Polls (every millisecond, up to `seconds`) until `path` exists; false if it never does.
@@ -117,9 +117,9 @@ std::vector<EdgeType> parseEdges(const std::string& names);
 ::testing::AssertionResult isClosedStrip(const std::vector<Triangle>& band, std::uint32_t m, std::uint32_t n);
 
 /// Small broken .vdb files, written with OpenVDB itself, for bad-input tests.
-void writeVectorGridVdb(const std::string& path);  // one Vec3 grid named "velocity"
-void writeEmptyGridVdb(const std::string& path);   // one float level set "empty" without voxels
-void writeNanGridVdb(const std::string& path);     // one float level set "broken" of NaNs
+void writeVectorGridVdb(const std::string& path); // one Vec3 grid named "velocity"
+void writeEmptyGridVdb(const std::string& path);  // one float level set "empty" without voxels
+void writeNanGridVdb(const std::string& path);    // one float level set "broken" of NaNs
 
 /// Mesh files written byte by byte rather than through a library, so that they can hold what no
 /// writer would: NaN coordinates, bad indices, non-manifold faces.
@@ -129,8 +129,8 @@ enum class MeshFile {
     PlyBinaryBigEndian, // the same, big endian
     Obj,                // indices written from 1: index i becomes i + 1
     Off,
-    StlAscii,           // triangles only; each corner written out by its coordinates
-    StlBinary,          // the same, as float32
+    StlAscii,  // triangles only; each corner written out by its coordinates
+    StlBinary, // the same, as float32
 };
 const std::vector<MeshFile>& allMeshFiles();
 std::string extensionOf(MeshFile kind); // ".ply", ...

@@ -23,7 +23,8 @@ TriangleMesh tetrahedron(glm::dvec3 offset = glm::dvec3(0.0))
     return m;
 }
 
-TriangleMesh merged(const TriangleMesh& a, const TriangleMesh& b, std::vector<std::pair<std::uint32_t, std::uint32_t>> glue = {})
+TriangleMesh merged(const TriangleMesh& a, const TriangleMesh& b,
+                    std::vector<std::pair<std::uint32_t, std::uint32_t>> glue = {})
 {
     TriangleMesh m = a;
     const std::uint32_t base = static_cast<std::uint32_t>(a.vertices.size());
@@ -199,7 +200,7 @@ TEST(Validate, CatchesAnInsideOutMesh)
     const Validation v = straightValidator().validate(m);
     EXPECT_TRUE(v.topology.oriented()); // consistently, but the wrong way
     EXPECT_FALSE(v.topology.outward());
-    EXPECT_LT(v.symmetric.max, 1.0);    // the geometry itself is unchanged
+    EXPECT_LT(v.symmetric.max, 1.0); // the geometry itself is unchanged
 }
 
 TEST(Validate, CatchesTwoCopiesGluedAtAnEdge)

@@ -156,7 +156,8 @@ TEST(Volume, FirstFloatGridIsTheOneTheGridListShowsFirst)
     }
     for (const auto& [file, first] : {std::pair{"offsets.vdb", "a"}, std::pair{"stream.vdb", "b"}}) {
         const std::vector<GridSummary> listed = listGrids(dir.path(file));
-        const auto firstFloat = std::find_if(listed.begin(), listed.end(), [](const GridSummary& g) { return g.valueType == "float"; });
+        const auto firstFloat =
+            std::find_if(listed.begin(), listed.end(), [](const GridSummary& g) { return g.valueType == "float"; });
         ASSERT_NE(firstFloat, listed.end()) << file;
         EXPECT_EQ(firstFloat->name, first) << file;
         EXPECT_EQ(readVolume(dir.path(file)).gridName(), first) << file;
@@ -208,7 +209,8 @@ openvdb::FloatGrid::Ptr tubeFogWithHotVoxels(int hot)
     for (int i = 0; i < 24; ++i)
         for (int j = 0; j < 24; ++j)
             for (int k = 0; k < 48; ++k)
-                acc.setValue(openvdb::Coord(i, j, k), static_cast<float>(std::clamp(6.5 - std::hypot(i - 11.5, j - 11.5), 0.0, 1.0)));
+                acc.setValue(openvdb::Coord(i, j, k),
+                             static_cast<float>(std::clamp(6.5 - std::hypot(i - 11.5, j - 11.5), 0.0, 1.0)));
     for (int k = 0; k < hot; ++k) acc.setValue(openvdb::Coord(11, 11, k), 100.0f);
     return grid;
 }
@@ -221,9 +223,8 @@ TEST(Volume, HotVoxelsTooFewToBeAnObjectDoNotSetTheDefaultFogIso)
     // sections) with voxels of 100 on its axis. Halfway to 100 would put the surface around those
     // voxels alone; while fewer than 27 (a 3^3 block) of them would lie inside, the default is
     // halfway to 1, the next densest value, and they are counted as hot.
-    for (const auto& [hot, iso, hotVoxels, inside] :
-         std::vector<std::tuple<int, double, long long, long long>>{{0, 0.5, 0, 5376}, {1, 0.5, 1, 5376}, {26, 0.5, 26, 5376},
-                                                                    {27, 50.0, 0, 27}}) {
+    for (const auto& [hot, iso, hotVoxels, inside] : std::vector<std::tuple<int, double, long long, long long>>{
+             {0, 0.5, 0, 5376}, {1, 0.5, 1, 5376}, {26, 0.5, 26, 5376}, {27, 50.0, 0, 27}}) {
         SCOPED_TRACE(std::to_string(hot) + " hot voxels");
         const Volume v = volumeFromGrid(tubeFogWithHotVoxels(hot), {}, "tube");
         EXPECT_DOUBLE_EQ(v.iso(), iso);

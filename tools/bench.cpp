@@ -70,7 +70,10 @@ std::pair<Timing, Timing> measurePair(int repeat, const std::function<void()>& a
     return {summarize(std::move(sa)), summarize(std::move(sb))};
 }
 
-json timingJson(const Timing& t) { return {{"seconds", t.median}, {"min", t.min}, {"max", t.max}}; }
+json timingJson(const Timing& t)
+{
+    return {{"seconds", t.median}, {"min", t.min}, {"max", t.max}};
+}
 
 // uniform volumeToMesh followed by meshoptimizer, down to `targetTriangles`.
 TriangleMesh simplified(const TriangleMesh& mesh, std::size_t targetTriangles)
@@ -88,8 +91,9 @@ TriangleMesh simplified(const TriangleMesh& mesh, std::size_t targetTriangles)
     std::vector<unsigned int> out(indices.size());
     // target_error 1 (relative to the mesh extent): let the triangle count decide, as a user
     // asking for "this many triangles" would.
-    const std::size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
-                                               mesh.vertices.size(), 3 * sizeof(float), 3 * targetTriangles, 1.0f, 0, nullptr);
+    const std::size_t count =
+        meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(), mesh.vertices.size(),
+                         3 * sizeof(float), 3 * targetTriangles, 1.0f, 0, nullptr);
     TriangleMesh result;
     result.vertices = mesh.vertices;
     for (std::size_t i = 0; i + 2 < count; i += 3) result.triangles.push_back({out[i], out[i + 1], out[i + 2]});
@@ -98,8 +102,10 @@ TriangleMesh simplified(const TriangleMesh& mesh, std::size_t targetTriangles)
 
 json accuracyJson(const Validation& v)
 {
-    return {{"hausdorff_voxels", v.symmetric.max / v.voxel}, {"rms_voxels", v.symmetric.rms / v.voxel},
-            {"closed", v.topology.closed()}, {"manifold", v.topology.manifold()}};
+    return {{"hausdorff_voxels", v.symmetric.max / v.voxel},
+            {"rms_voxels", v.symmetric.rms / v.voxel},
+            {"closed", v.topology.closed()},
+            {"manifold", v.topology.manifold()}};
 }
 
 } // namespace
@@ -118,8 +124,8 @@ int runBench(const BenchArgs& args)
     MeshOptions options;
     options.threads = args.threads;
     json report = {{"input", volume.source()}, {"grid", volume.gridName()}, {"repeat", repeat}};
-    std::printf("# pipetile bench: %s, grid '%s' (median of %d runs; min..max in the JSON)\n\n", volume.source().c_str(),
-                volume.gridName().c_str(), repeat);
+    std::printf("# pipetile bench: %s, grid '%s' (median of %d runs; min..max in the JSON)\n\n",
+                volume.source().c_str(), volume.gridName().c_str(), repeat);
 
     // The whole pipeline, all levels, as `pipetile mesh` runs it (files aside).
     std::vector<LevelMesh> levels;
@@ -133,7 +139,8 @@ int runBench(const BenchArgs& args)
     // Table 1: the same contours tiled by each tiler (only the tiling is timed), on every slice as
     // in the paper, so that triangles double from level to level.
     std::printf("## Table 1: tilers on the same contours (area and smallest angle: the whole mesh)\n\n"
-                "| level | rays | tiler | seconds | triangles | bytes | area | smallest angle |\n|---|---|---|---|---|---|---|---|\n");
+                "| level | rays | tiler | seconds | triangles | bytes | area | smallest angle "
+                "|\n|---|---|---|---|---|---|---|---|\n");
     json table1 = json::array();
     const std::vector<std::pair<TilerKind, const char*>> tilers = {
         {TilerKind::ContourTree, "contour-tree"}, {TilerKind::Optimal, "optimal"}, {TilerKind::Greedy, "greedy"}};
@@ -156,7 +163,9 @@ int runBench(const BenchArgs& args)
             const Timing t = summarize(std::move(seconds));
             const TriangleQuality q = measureQuality(m.mesh);
             json cell = timingJson(t);
-            cell.update({{"triangles", m.mesh.triangles.size()}, {"bytes", m.tilingBytes}, {"area", q.area},
+            cell.update({{"triangles", m.mesh.triangles.size()},
+                         {"bytes", m.tilingBytes},
+                         {"area", q.area},
                          {"smallest_angle", q.smallestAngle}});
             row[tilers[k].second] = cell;
             std::printf("| %d | %d | %s | %.5f | %zu | %zu | %.1f | %.2f |\n", level + 1, options.baseRays << level,
@@ -187,9 +196,15 @@ int runBench(const BenchArgs& args)
             }
             const Timing refineTime = summarize(refine), scratchTime = summarize(scratch);
             const double a = refineTime.median, c = summarize(casting).median, b = scratchTime.median;
-            rows.push_back({{"from", level}, {"refine_seconds", a}, {"new_rays_seconds", c}, {"scratch_seconds", b},
-                            {"ratio", a / b}, {"refine_per_new_rays", a / c}, {"refine_min", refineTime.min},
-                            {"refine_max", refineTime.max}, {"scratch_min", scratchTime.min},
+            rows.push_back({{"from", level},
+                            {"refine_seconds", a},
+                            {"new_rays_seconds", c},
+                            {"scratch_seconds", b},
+                            {"ratio", a / b},
+                            {"refine_per_new_rays", a / c},
+                            {"refine_min", refineTime.min},
+                            {"refine_max", refineTime.max},
+                            {"scratch_min", scratchTime.min},
                             {"scratch_max", scratchTime.max}});
             std::printf("| %d | %.5f | %.5f | %.5f | %.2f | %.2f |\n", level, a, c, b, a / b, a / c);
         }
@@ -208,7 +223,8 @@ int runBench(const BenchArgs& args)
                 "| method | seconds | triangles | Hausdorff | RMS | pipetile, all levels, alternating (s) | "
                 "time vs pipetile |\n|---|---|---|---|---|---|---|\n");
     json peers = json::array();
-    auto peerRow = [&](const std::string& name, const Timing& t, const Timing& paired, const TriangleMesh& mesh) -> Validation {
+    auto peerRow = [&](const std::string& name, const Timing& t, const Timing& paired,
+                       const TriangleMesh& mesh) -> Validation {
         const Validation v = validator.validate(mesh);
         json row = {{"method", name}, {"triangles", mesh.triangles.size()}};
         row.update(timingJson(t));
@@ -239,8 +255,8 @@ int runBench(const BenchArgs& args)
     for (std::size_t k = 0; k < levels.size(); ++k) {
         const LevelMesh& level = levels[k];
         Timing t{level.seconds, level.seconds, level.seconds};
-        const Validation v =
-            peerRow("pipetile L" + std::to_string(level.level) + " (level alone)", t, pipeline, tools::nestedMesh(nested, k));
+        const Validation v = peerRow("pipetile L" + std::to_string(level.level) + " (level alone)", t, pipeline,
+                                     tools::nestedMesh(nested, k));
         json row = levelReport(level, /*topology=*/true);
         row["validation"] = validationReport(v);
         html.levels.push_back(row);
@@ -260,8 +276,8 @@ int runBench(const BenchArgs& args)
     }
     report["peers"] = peers;
     report["pipetile"] = timingJson(pipeline);
-    std::printf("\npipetile mesh, all %d levels: %.4f s (min %.4f, max %.4f)\n", options.levels, pipeline.median, pipeline.min,
-                pipeline.max);
+    std::printf("\npipetile mesh, all %d levels: %.4f s (min %.4f, max %.4f)\n", options.levels, pipeline.median,
+                pipeline.min, pipeline.max);
     if (!args.report.empty()) outputs->write(args.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
     if (!args.html.empty()) {
         html.title = "pipetile bench: " + volume.source();

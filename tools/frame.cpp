@@ -51,9 +51,10 @@ bool sameFile(const std::string& a, const std::string& b)
 void warnIfRounded(const std::string& output, double rounding, double voxel, const Notify& notify)
 {
     if (rounding > 0.01 * voxel)
-        notify("warning", format("'%s': float32 coordinates (the format's only kind) move vertices by up to %.3g voxels "
-                                 "this far from the origin; write .ply, .obj or .off to keep them exact",
-                                 output.c_str(), rounding / voxel));
+        notify("warning",
+               format("'%s': float32 coordinates (the format's only kind) move vertices by up to %.3g voxels "
+                      "this far from the origin; write .ply, .obj or .off to keep them exact",
+                      output.c_str(), rounding / voxel));
 }
 
 // Level 0, then each level refined from the one before (only the new rays are cast).
@@ -152,8 +153,9 @@ std::unique_ptr<OutputSet> openOutputs(const std::vector<NamedPath>& outputs, co
                               recovered.size() == 1 ? "" : ", ..."));
     const std::vector<std::string>& stale = set->staleRemoved();
     if (!stale.empty())
-        notify("note", format("removed %zu temporary file%s left by a pipetile run that was killed (%s%s)", stale.size(),
-                              stale.size() == 1 ? "" : "s", stale.front().c_str(), stale.size() == 1 ? "" : ", ..."));
+        notify("note",
+               format("removed %zu temporary file%s left by a pipetile run that was killed (%s%s)", stale.size(),
+                      stale.size() == 1 ? "" : "s", stale.front().c_str(), stale.size() == 1 ? "" : ", ..."));
     return set;
 }
 
@@ -169,10 +171,11 @@ void noteIsovalue(const Volume& volume, const Notify& notify)
                               one ? "it" : "them"));
     }
     if (volume.insideVoxels() < kFewestObjectVoxels)
-        notify("warning", format("%s: only %lld active voxel%s inside the surface at iso %g: the mesh can only be specks "
-                                 "(values range from %g to %g; choose --iso)",
-                                 grid.c_str(), volume.insideVoxels(), volume.insideVoxels() == 1 ? " lies" : "s lie",
-                                 volume.iso(), volume.minValue(), volume.maxValue()));
+        notify("warning",
+               format("%s: only %lld active voxel%s inside the surface at iso %g: the mesh can only be specks "
+                      "(values range from %g to %g; choose --iso)",
+                      grid.c_str(), volume.insideVoxels(), volume.insideVoxels() == 1 ? " lies" : "s lie", volume.iso(),
+                      volume.minValue(), volume.maxValue()));
 }
 
 json meshFrame(const FrameJob& job)

@@ -62,17 +62,17 @@ void noteIsovalue(const Volume& volume, const Notify& notify);
 
 /// One input to mesh: what to read, what to write, and who hears about it.
 struct FrameJob {
-    std::string input;          // the .vdb file (empty with `read` set: a sample), for the clobbering check
-    std::string output;         // mesh path; level k goes to levelPath(output, k)
-    std::string report;         // JSON report path; empty: none
-    std::string html;           // HTML report path; empty: none
-    double metresPerUnit = 1.0; // a .glb's scale: the grid's world unit in metres (glTF's unit)
-    std::string owner;          // who writes (the command line), for a concurrent run's message
-    MeshOptions options;        // checked by meshFrame
-    VolumeOptions volume;       // grid and isovalue, for reading `input`
-    std::function<Volume()> read;                    // empty: readVolume(input, volume); set: the volume
-                                                     // read elsewhere (a sample, or read ahead)
-    Notify notify;                                   // notes and warnings; must be set
+    std::string input;            // the .vdb file (empty with `read` set: a sample), for the clobbering check
+    std::string output;           // mesh path; level k goes to levelPath(output, k)
+    std::string report;           // JSON report path; empty: none
+    std::string html;             // HTML report path; empty: none
+    double metresPerUnit = 1.0;   // a .glb's scale: the grid's world unit in metres (glTF's unit)
+    std::string owner;            // who writes (the command line), for a concurrent run's message
+    MeshOptions options;          // checked by meshFrame
+    VolumeOptions volume;         // grid and isovalue, for reading `input`
+    std::function<Volume()> read; // empty: readVolume(input, volume); set: the volume
+                                  // read elsewhere (a sample, or read ahead)
+    Notify notify;                // notes and warnings; must be set
     std::function<void(int level, int levels)> levelDone; // progress after each level; may be empty
     /// Before the commit, with the report complete but for validation: prints, validates (adding
     /// to the report, and for a .glb or an HTML report each vertex's error, in the order of

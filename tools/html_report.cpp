@@ -32,7 +32,8 @@ std::string base64(const std::string& bytes)
 std::string scriptSafeJson(const nlohmann::json& value)
 {
     std::string text = value.dump();
-    for (std::size_t at = text.find("</"); at != std::string::npos; at = text.find("</", at + 3)) text.insert(at + 1, "\\");
+    for (std::size_t at = text.find("</"); at != std::string::npos; at = text.find("</", at + 3))
+        text.insert(at + 1, "\\");
     return text;
 }
 
@@ -41,7 +42,8 @@ std::string scriptSafeJson(const nlohmann::json& value)
 void checkHtmlReportAvailable(const std::string& path)
 {
     if (std::strlen(kReportPage) == 0)
-        throw Error("--html '" + path + "': this pipetile was built without the HTML report (npm was not found at build "
+        throw Error("--html '" + path +
+                    "': this pipetile was built without the HTML report (npm was not found at build "
                     "time); install nodejs and npm, then rebuild");
 }
 
@@ -61,7 +63,10 @@ void writeHtmlReport(OutputSet& outputs, const std::string& path, const HtmlRepo
     std::ostringstream glbBytes;
     writeGlb(glbBytes, nested, glb, path);
     const nlohmann::json data = {
-        {"title", report.title}, {"subtitle", report.subtitle}, {"levels", report.levels}, {"peers", report.peers},
+        {"title", report.title},
+        {"subtitle", report.subtitle},
+        {"levels", report.levels},
+        {"peers", report.peers},
         {"glb", {{"metres_per_unit", glb.metresPerUnit}, {"voxel_metres", report.voxel * glb.metresPerUnit}}}};
     const std::string page = kReportPage;
     const std::string marker = "<!--PIPETILE_DATA-->";
@@ -70,7 +75,8 @@ void writeHtmlReport(OutputSet& outputs, const std::string& path, const HtmlRepo
     outputs.write(path, [&](std::ostream& out) {
         out.write(page.data(), static_cast<std::streamsize>(at));
         out << "<script id=\"pipetile-data\" type=\"application/json\">" << scriptSafeJson(data) << "</script>\n"
-            << "<script id=\"pipetile-glb\" type=\"application/octet-stream\">" << base64(glbBytes.str()) << "</script>";
+            << "<script id=\"pipetile-glb\" type=\"application/octet-stream\">" << base64(glbBytes.str())
+            << "</script>";
         out << page.substr(at + marker.size());
     });
 }

@@ -53,9 +53,15 @@ using pipetile::tools::openOutputs;
 using pipetile::tools::outputsExist;
 using pipetile::tools::refuseClobbering;
 
-void printNote(const char* kind, const std::string& text) { std::fprintf(stderr, "pipetile: %s: %s\n", kind, text.c_str()); }
+void printNote(const char* kind, const std::string& text)
+{
+    std::fprintf(stderr, "pipetile: %s: %s\n", kind, text.c_str());
+}
 
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+double secondsSince(Clock::time_point start)
+{
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
 
 void writeJson(const json& report, pipetile::OutputSet& outputs, const std::string& path)
 {
@@ -72,16 +78,14 @@ std::string topologyProblems(const pipetile::TriangleMesh& mesh, const pipetile:
         std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", p.x, p.y, p.z);
         return std::string(buffer);
     };
-    auto count = [](long long n, const char* what) {
-        return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
-    };
+    auto count = [](long long n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); };
     std::vector<std::string> parts;
     if (t.nonManifoldEdges > 0)
         parts.push_back(count(t.nonManifoldEdges, "non-manifold edge") + " (in 3 or more triangles; one joins " +
                         at(t.firstNonManifoldEdge[0]) + " and " + at(t.firstNonManifoldEdge[1]) + ")");
     if (t.nonManifoldVertices > 0)
-        parts.push_back(count(t.nonManifoldVertices, "non-manifold vertex") + " (where separate fans of triangles meet; one at " +
-                        at(t.firstNonManifoldVertex) + ")");
+        parts.push_back(count(t.nonManifoldVertices, "non-manifold vertex") +
+                        " (where separate fans of triangles meet; one at " + at(t.firstNonManifoldVertex) + ")");
     if (t.boundaryEdges > 0) parts.push_back(count(t.boundaryEdges, "boundary edge"));
     if (t.misorientedEdges > 0) parts.push_back(count(t.misorientedEdges, "misoriented edge"));
     std::string text;
@@ -104,7 +108,6 @@ void printValidationRow(const std::string& label, const pipetile::Validation& v)
                 t.closed() ? "yes" : "NO", t.manifold() ? "yes" : "NO", t.oriented() ? "yes" : "NO",
                 t.outward() ? "yes" : "NO", t.euler, v.quality.smallestAngle, v.voxel);
 }
-
 
 std::string formatNumber(double v)
 {
@@ -159,14 +162,17 @@ pipetile::tools::FrameJob frameJob(const MeshArgs& args, const std::string& inpu
     job.owner = args.owner;
     pipetile::MeshOptions& options = job.options;
     options.slicing.spacingVoxels = args.spacing;
-    options.slicing.axis = args.axis == "x" ? pipetile::Axis::X : args.axis == "y" ? pipetile::Axis::Y
-                         : args.axis == "z" ? pipetile::Axis::Z : pipetile::Axis::Auto;
+    options.slicing.axis = args.axis == "x"   ? pipetile::Axis::X
+                           : args.axis == "y" ? pipetile::Axis::Y
+                           : args.axis == "z" ? pipetile::Axis::Z
+                                              : pipetile::Axis::Auto;
     options.baseRays = args.rays;
     options.levels = args.levels;
     options.threads = args.threads;
     options.everySlice = args.everySlice;
-    options.tiler = args.tiler == "optimal" ? pipetile::TilerKind::Optimal
-                  : args.tiler == "greedy"  ? pipetile::TilerKind::Greedy : pipetile::TilerKind::ContourTree;
+    options.tiler = args.tiler == "optimal"  ? pipetile::TilerKind::Optimal
+                    : args.tiler == "greedy" ? pipetile::TilerKind::Greedy
+                                             : pipetile::TilerKind::ContourTree;
     job.metresPerUnit = metresPerUnit(args.units);
     job.volume.gridName = args.grid;
     job.volume.iso = args.iso;
@@ -192,19 +198,20 @@ void printLevels(const pipetile::Volume& volume, const pipetile::Reconstruction&
 // `nested` levels (a .glb or an HTML report), each level is validated as its nested mesh, the same
 // mesh renumbered, so that the finest level's vertex errors fit the .glb's vertex array.
 void validateLevels(const pipetile::Volume& volume, const std::vector<pipetile::LevelMesh>& levels,
-                    const pipetile::NestedLevels& nested, json& report, pipetile::GlbOptions& glb, int threads, bool print)
+                    const pipetile::NestedLevels& nested, json& report, pipetile::GlbOptions& glb, int threads,
+                    bool print)
 {
     // One reference isosurface for all levels; its time is the same-run peer of ours.
     const pipetile::Validator validator(volume, {1.0, threads});
     if (print) {
-        std::printf("\nvalidation against volumeToMesh (%zu triangles, %.4f s):\n", validator.reference().triangles.size(),
-                    validator.referenceSeconds());
+        std::printf("\nvalidation against volumeToMesh (%zu triangles, %.4f s):\n",
+                    validator.reference().triangles.size(), validator.referenceSeconds());
         printValidationHeader();
     }
     const bool nest = !nested.vertexCounts.empty();
     for (std::size_t k = 0; k < levels.size(); ++k) {
-        const pipetile::Validation v = nest ? validator.validate(pipetile::tools::nestedMesh(nested, k))
-                                            : validator.validate(levels[k].mesh);
+        const pipetile::Validation v =
+            nest ? validator.validate(pipetile::tools::nestedMesh(nested, k)) : validator.validate(levels[k].mesh);
         if (nest && k + 1 == levels.size()) glb.vertexError = v.vertexDistance;
         report["levels"][k]["validation"] = pipetile::tools::validationReport(v);
         if (print) printValidationRow("L" + std::to_string(levels[k].level), v);
@@ -213,8 +220,11 @@ void validateLevels(const pipetile::Volume& volume, const std::vector<pipetile::
 
 int runMesh(const MeshArgs& args)
 {
-    const std::string output = !args.output.empty() ? args.output
-        : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) + ".ply";
+    const std::string output =
+        !args.output.empty()
+            ? args.output
+            : (args.input.empty() ? std::string("phantom") : std::filesystem::path(args.input).stem().string()) +
+                  ".ply";
     pipetile::tools::FrameJob job = frameJob(args, args.input, output, args.report);
     if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels)) {
         std::printf("%s: its outputs exist, skipped (--skip-existing)\n", output.c_str());
@@ -292,8 +302,12 @@ int runValidate(const ValidateArgs& args)
         pipetile::writeMesh(mesh, *files, args.colors, options);
     }
     if (!args.report.empty()) {
-        json report = {{"input", args.input}, {"grid", volume.gridName()}, {"iso", volume.iso()}, {"mesh", args.mesh},
-                       {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
+        json report = {{"input", args.input},
+                       {"grid", volume.gridName()},
+                       {"iso", volume.iso()},
+                       {"mesh", args.mesh},
+                       {"vertices", mesh.vertices.size()},
+                       {"triangles", mesh.triangles.size()},
                        {"validation", pipetile::tools::validationReport(v)}};
         writeJson(report, *files, args.report);
     }
@@ -305,15 +319,18 @@ int runValidate(const ValidateArgs& args)
         html.subtitle = "against the isosurface of " + args.input + ", grid '" + volume.gridName() + "' at iso " +
                         formatNumber(volume.iso());
         html.levels = json::array({{{"name", std::filesystem::path(args.mesh).filename().string()},
-                                    {"vertices", mesh.vertices.size()}, {"triangles", mesh.triangles.size()},
-                                    {"seconds", v.seconds}, {"validation", pipetile::tools::validationReport(v)}}});
+                                    {"vertices", mesh.vertices.size()},
+                                    {"triangles", mesh.triangles.size()},
+                                    {"seconds", v.seconds},
+                                    {"validation", pipetile::tools::validationReport(v)}}});
         html.voxel = v.voxel;
         pipetile::GlbOptions glb;
         glb.vertexError = v.vertexDistance;
         pipetile::tools::writeHtmlReport(*files, args.html, html, one, glb);
     }
     files->commit();
-    if (!args.colors.empty()) std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
+    if (!args.colors.empty())
+        std::printf("wrote %s: blue on the isosurface, red at 1 voxel or more\n", args.colors.c_str());
     return 0;
 }
 
@@ -321,7 +338,8 @@ int runSample(const std::string& name, const std::string& output, bool list)
 {
     if (list || name.empty()) {
         for (const pipetile::samples::SampleInfo& s : pipetile::samples::sampleList())
-            std::printf("%-14s %4d x %4d x %4d  %s\n", s.name.c_str(), s.dims.x, s.dims.y, s.dims.z, s.description.c_str());
+            std::printf("%-14s %4d x %4d x %4d  %s\n", s.name.c_str(), s.dims.x, s.dims.y, s.dims.z,
+                        s.description.c_str());
         return 0;
     }
     if (output.empty()) throw pipetile::UsageError("sample: give the output file with -o FILE.vdb");
@@ -384,7 +402,8 @@ void handleSignalsInOneThread()
         int s = 0;
         if (sigwait(&signals, &s) != 0) return;
         pipetile::abandonOutputs();
-        std::fprintf(stderr, "pipetile: stopped by %s; this run's files are removed, earlier outputs are as they were\n",
+        std::fprintf(stderr,
+                     "pipetile: stopped by %s; this run's files are removed, earlier outputs are as they were\n",
                      strsignal(s));
         std::signal(s, SIG_DFL);
         sigset_t one;
@@ -411,7 +430,8 @@ Exhausted exhausted(const std::exception& e)
 {
     if (dynamic_cast<const std::bad_alloc*>(&e) || dynamic_cast<const std::length_error*>(&e)) return Exhausted::Memory;
     if (const auto* failure = dynamic_cast<const std::system_error*>(&e))
-        if (failure->code() == std::errc::resource_unavailable_try_again || failure->code() == std::errc::not_enough_memory)
+        if (failure->code() == std::errc::resource_unavailable_try_again ||
+            failure->code() == std::errc::not_enough_memory)
             return Exhausted::Threads;
     if (std::strncmp(e.what(), "pthread_create has failed", 25) == 0) return Exhausted::Threads;
     return Exhausted::Nothing;
@@ -421,8 +441,8 @@ Exhausted exhausted(const std::exception& e)
 std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate, Exhausted what = Exhausted::Memory)
 {
     const bool threads = what == Exhausted::Threads;
-    const std::string ranOut = threads ? "out of memory for a new thread (or the process limit, ulimit -u, is reached)"
-                                       : "out of memory";
+    const std::string ranOut =
+        threads ? "out of memory for a new thread (or the process limit, ulimit -u, is reached)" : "out of memory";
     if (mesh) {
         const std::string input = mesh->input.empty() ? std::string("the phantom") : "'" + mesh->input + "'";
         return ranOut + " meshing " + input + " with --levels " + std::to_string(mesh->levels) + ", --rays " +
@@ -431,8 +451,8 @@ std::string outOfMemory(const MeshArgs* mesh, const ValidateArgs* validate, Exha
                "lower --levels or --rays, raise --spacing, or clip the grid to the object";
     }
     if (validate)
-        return ranOut + " validating '" + validate->mesh + "' against '" + validate->input + "': " +
-               (threads ? "use fewer --threads; " : "") +
+        return ranOut + " validating '" + validate->mesh + "' against '" + validate->input +
+               "': " + (threads ? "use fewer --threads; " : "") +
                "the isosurface of the whole grid and the mesh must fit; clip the grid to the object or "
                "validate a coarser level";
     return ranOut + ": use a smaller grid (clip it to the object) or fewer levels";
@@ -482,9 +502,13 @@ void setExhaustionMessages(const MeshArgs* mesh, const ValidateArgs* validate)
 
 // Installed from the executable's preinit array, which runs before the shared libraries'
 // constructors, so that a thread log4cplus cannot start there ends in the message too.
-void installTerminateHandler(int, char**, char**) { gDefaultTerminate = std::set_terminate(exitOnExhaustion); }
-__attribute__((used, section(".preinit_array"))) void (*const gInstallTerminateHandler)(int, char**, char**) =
-    installTerminateHandler;
+void installTerminateHandler(int, char**, char**)
+{
+    gDefaultTerminate = std::set_terminate(exitOnExhaustion);
+}
+__attribute__((used,
+               section(".preinit_array"))) void (*const gInstallTerminateHandler)(int, char**,
+                                                                                  char**) = installTerminateHandler;
 
 // The pattern of a sequence's outputs (-o, --report): it must hold the frame number too.
 std::optional<pipetile::tools::FramePattern> outputPattern(const std::string& text, const char* option)
@@ -492,7 +516,8 @@ std::optional<pipetile::tools::FramePattern> outputPattern(const std::string& te
     if (text.empty()) return std::nullopt;
     std::optional<pipetile::tools::FramePattern> pattern = pipetile::tools::FramePattern::parse(text);
     if (!pattern)
-        throw pipetile::UsageError(std::string(option) + " '" + text + "': the input is a sequence, so each frame needs " +
+        throw pipetile::UsageError(std::string(option) + " '" + text +
+                                   "': the input is a sequence, so each frame needs " +
                                    "its own file; put the frame number in it (####, $F4 or %04d)");
     return pattern;
 }
@@ -505,7 +530,8 @@ std::future<pipetile::Volume> readAhead(const std::string& path, const pipetile:
 
 // Meshes one frame of a sequence; a failure is the frame's, told in one line, and the run goes on.
 pipetile::tools::FrameOutcome meshSequenceFrame(const MeshArgs& args, pipetile::tools::FrameJob job, int frame,
-                                                std::future<pipetile::Volume>& volume, pipetile::tools::Progress& progress)
+                                                std::future<pipetile::Volume>& volume,
+                                                pipetile::tools::Progress& progress)
 {
     pipetile::tools::FrameOutcome outcome{frame, job.input, "meshed", "", {}};
     const std::string name = "frame " + std::to_string(frame);
@@ -526,10 +552,10 @@ pipetile::tools::FrameOutcome meshSequenceFrame(const MeshArgs& args, pipetile::
         outcome.error = pipetile::tools::frameError(frame, e.what());
     } catch (const std::exception& e) {
         const Exhausted what = exhausted(e);
-        outcome.error = pipetile::tools::frameError(frame, what != Exhausted::Nothing
-                                                               ? outOfMemory(&frameArgs, nullptr, what)
-                                                               : std::string("internal error: ") + e.what() +
-                                                                     " (please report it with the input)");
+        outcome.error =
+            pipetile::tools::frameError(frame, what != Exhausted::Nothing ? outOfMemory(&frameArgs, nullptr, what)
+                                                                          : std::string("internal error: ") + e.what() +
+                                                                                " (please report it with the input)");
     }
     if (!outcome.error.empty()) {
         outcome.status = "failed";
@@ -551,11 +577,14 @@ int runSequence(const MeshArgs& args, const pipetile::tools::FramePattern& input
 {
     const Clock::time_point start = Clock::now();
     const std::string defaultOutput = std::filesystem::path(input.text()).stem().string() + ".ply";
-    const pipetile::tools::FramePattern output = *outputPattern(args.output.empty() ? defaultOutput : args.output, "-o");
+    const pipetile::tools::FramePattern output =
+        *outputPattern(args.output.empty() ? defaultOutput : args.output, "-o");
     const std::optional<pipetile::tools::FramePattern> report = outputPattern(args.report, "--report");
     if (!args.html.empty())
-        throw pipetile::UsageError("--html writes one page for one input; a sequence has a report per frame (--report)");
-    const std::vector<int> frames = args.frames.empty() ? input.existingFrames() : pipetile::tools::parseFrameRange(args.frames);
+        throw pipetile::UsageError(
+            "--html writes one page for one input; a sequence has a report per frame (--report)");
+    const std::vector<int> frames =
+        args.frames.empty() ? input.existingFrames() : pipetile::tools::parseFrameRange(args.frames);
     if (frames.empty())
         throw pipetile::Error("'" + input.text() + "': no file matches; check the name, or give --frames A-B");
     std::unique_ptr<pipetile::OutputSet> summary;
@@ -568,9 +597,12 @@ int runSequence(const MeshArgs& args, const pipetile::tools::FramePattern& input
     std::vector<pipetile::tools::FrameOutcome> outcomes;
     std::vector<std::pair<int, pipetile::tools::FrameJob>> jobs;
     for (const int frame : frames) {
-        pipetile::tools::FrameJob job = frameJob(args, input.path(frame), output.path(frame), report ? report->path(frame) : "");
-        if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels)) outcomes.push_back({frame, job.input, "skipped", "", {}});
-        else jobs.emplace_back(frame, std::move(job));
+        pipetile::tools::FrameJob job =
+            frameJob(args, input.path(frame), output.path(frame), report ? report->path(frame) : "");
+        if (args.skipExisting && outputsExist(job.output, job.report, job.options.levels))
+            outcomes.push_back({frame, job.input, "skipped", "", {}});
+        else
+            jobs.emplace_back(frame, std::move(job));
     }
     if (!jobs.empty()) pipetile::checkMeshOptions(jobs.front().second.options); // a usage error once, not per frame
     pipetile::tools::Progress progress(static_cast<int>(jobs.size()), "frames", ::isatty(STDERR_FILENO));
@@ -614,7 +646,8 @@ int main(int argc, char** argv)
         ->check(CLI::IsMember({"m", "cm", "mm", "um"}));
     mesh->add_option("--html", meshArgs.html, "write an HTML report: the levels in 3D, their table");
     mesh->add_option("--grid", meshArgs.grid, "grid name (default: the first float grid)");
-    mesh->add_option("--iso", meshArgs.iso, "isovalue (default: 0 for level sets; fog: halfway from background to max)");
+    mesh->add_option("--iso", meshArgs.iso,
+                     "isovalue (default: 0 for level sets; fog: halfway from background to max)");
     mesh->add_option("--axis", meshArgs.axis, "slicing axis")->check(CLI::IsMember({"x", "y", "z", "auto"}));
     mesh->add_option("--spacing", meshArgs.spacing, "slice spacing in voxels")->check(CLI::Range(0.1, 1000.0));
     mesh->add_option("--rays", meshArgs.rays, "rays at level 0 (n0)")->check(CLI::Range(3, 4096));
@@ -638,19 +671,22 @@ int main(int argc, char** argv)
     bench->add_option("INPUT", benchArgs.input, "input .vdb file; omitted: the bundled 'phantom' sample");
     bench->add_option("--report", benchArgs.report, "write the figures as JSON");
     bench->add_option("--html", benchArgs.html, "write an HTML report: the levels in 3D, error against triangles");
-    bench->add_option("--repeat", benchArgs.repeat, "repetitions per figure (median reported)")->check(CLI::Range(1, 1000));
+    bench->add_option("--repeat", benchArgs.repeat, "repetitions per figure (median reported)")
+        ->check(CLI::Range(1, 1000));
     bench->add_option("--threads", benchArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
 
     ValidateArgs validateArgs;
     CLI::App* validate = app.add_subcommand("validate", "Compare any mesh with the isosurface of a .vdb volume");
     validate->add_option("INPUT", validateArgs.input, "input .vdb file")->required();
-    validate->add_option("MESH", validateArgs.mesh, "mesh file (.ply .obj .stl .off), from pipetile or any tool")->required();
+    validate->add_option("MESH", validateArgs.mesh, "mesh file (.ply .obj .stl .off), from pipetile or any tool")
+        ->required();
     validate->add_option("--grid", validateArgs.grid, "grid name (default: the first float grid)");
     validate->add_option("--iso", validateArgs.iso, "isovalue (default as for mesh)");
     validate->add_option("--report", validateArgs.report, "write a JSON report");
     validate->add_option("--error-colors", validateArgs.colors, "write the mesh as .ply coloured by its distance");
     validate->add_option("--html", validateArgs.html, "write an HTML report: the mesh in 3D coloured by its distance");
-    validate->add_option("--threads", validateArgs.threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
+    validate->add_option("--threads", validateArgs.threads, "worker threads (0: all cores)")
+        ->check(CLI::Range(0, 1024));
 
     std::string sampleName, sampleOutput;
     bool sampleList = false;

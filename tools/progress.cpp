@@ -13,14 +13,21 @@ std::string duration(double seconds)
 {
     char text[32];
     const long s = static_cast<long>(seconds + 0.5);
-    if (s < 60) std::snprintf(text, sizeof text, "%ld s", s);
-    else std::snprintf(text, sizeof text, "%ld:%02ld", s / 60, s % 60);
+    if (s < 60)
+        std::snprintf(text, sizeof text, "%ld s", s);
+    else
+        std::snprintf(text, sizeof text, "%ld:%02ld", s / 60, s % 60);
     return text;
 }
 
 } // namespace
 
-Progress::Progress(int total, std::string unit, bool terminal) : mTotal(total), mUnit(std::move(unit)), mTerminal(terminal) {}
+Progress::Progress(int total, std::string unit, bool terminal)
+    : mTotal(total),
+      mUnit(std::move(unit)),
+      mTerminal(terminal)
+{
+}
 
 Progress::~Progress()
 {

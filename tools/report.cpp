@@ -10,8 +10,13 @@ namespace {
 
 json distanceJson(const DistanceStats& d, double voxel)
 {
-    return {{"max", d.max}, {"mean", d.mean}, {"rms", d.rms}, {"max_voxels", d.max / voxel},
-            {"mean_voxels", d.mean / voxel}, {"rms_voxels", d.rms / voxel}, {"samples", d.samples}};
+    return {{"max", d.max},
+            {"mean", d.mean},
+            {"rms", d.rms},
+            {"max_voxels", d.max / voxel},
+            {"mean_voxels", d.mean / voxel},
+            {"rms_voxels", d.rms / voxel},
+            {"samples", d.samples}};
 }
 
 // The skeleton: segments with their ends and extent along the slicing axis (index space), and
@@ -21,22 +26,37 @@ json graphJson(const Reconstruction& reconstruction)
     const Skeleton skeleton = reconstruction.skeleton();
     json segments = json::array(), junctions = json::array();
     for (const Skeleton::Segment& s : skeleton.segments)
-        segments.push_back({{"hole", s.hole}, {"first_w", s.wFirst}, {"last_w", s.wLast}, {"contours", s.contours},
-                            {"bottom", s.bottom}, {"top", s.top}, {"bottom_junction", s.bottomJunction},
+        segments.push_back({{"hole", s.hole},
+                            {"first_w", s.wFirst},
+                            {"last_w", s.wLast},
+                            {"contours", s.contours},
+                            {"bottom", s.bottom},
+                            {"top", s.top},
+                            {"bottom_junction", s.bottomJunction},
                             {"top_junction", s.topJunction}});
     for (const Skeleton::Junction& j : skeleton.junctions)
-        junctions.push_back({{"kind", toString(j.kind)}, {"w", j.w}, {"crotch_w", j.crotchW},
-                             {"single", j.single}, {"partners", j.partners}});
+        junctions.push_back({{"kind", toString(j.kind)},
+                             {"w", j.w},
+                             {"crotch_w", j.crotchW},
+                             {"single", j.single},
+                             {"partners", j.partners}});
     json unresolved = json::array();
     for (const Skeleton::Unresolved& u : skeleton.unresolved)
-        unresolved.push_back({{"w_below", u.wBelow}, {"w_above", u.wAbove}, {"walls_below", u.wallsBelow},
-                              {"holes_below", u.holesBelow}, {"walls_above", u.wallsAbove}, {"holes_above", u.holesAbove}});
+        unresolved.push_back({{"w_below", u.wBelow},
+                              {"w_above", u.wAbove},
+                              {"walls_below", u.wallsBelow},
+                              {"holes_below", u.holesBelow},
+                              {"walls_above", u.wallsAbove},
+                              {"holes_above", u.holesAbove}});
     return {{"segments", segments}, {"junctions", junctions}, {"unresolved", unresolved}};
 }
 
 } // namespace
 
-const char* axisName(int axis) { return axis == 0 ? "x" : axis == 1 ? "y" : "z"; }
+const char* axisName(int axis)
+{
+    return axis == 0 ? "x" : axis == 1 ? "y" : "z";
+}
 
 const char* tilerName(TilerKind kind)
 {
@@ -60,17 +80,32 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
         {"spacing", options.slicing.spacingVoxels},
         {"voxel", volume.smallestVoxel()},
         {"slices", stats.slices},
-        {"statistics", {{"empty_slices", stats.emptySlices}, {"contours", stats.contours}, {"holes", stats.holes},
-                        {"tubes", stats.tubes}, {"dropped_small_contours", stats.droppedSmall},
-                        {"dropped_unwound_contours", stats.droppedUnwound},
-                        {"dropped_flat_contours", stats.droppedFlat}, {"end_contours", stats.endContours},
-                        {"flat_caps", stats.flatCaps}, {"clipped_caps", stats.clippedCaps},
-                        {"annular_caps", stats.annularCaps}, {"caps", stats.caps},
-                        {"seconds", stats.seconds}}},
-        {"events", {{"starts", stats.starts}, {"ends", stats.ends}, {"forks", stats.forks}, {"merges", stats.merges},
-                    {"saddles", stats.saddles}, {"rims", stats.rims}, {"unresolved", stats.unresolvedEvents},
-                    {"unresolved_junctions", stats.unresolvedJunctions}, {"planes_added", stats.addedPlanes},
-                    {"euler", stats.eventEuler}, {"built_euler", stats.caps - stats.saddles}}},
+        {"statistics",
+         {{"empty_slices", stats.emptySlices},
+          {"contours", stats.contours},
+          {"holes", stats.holes},
+          {"tubes", stats.tubes},
+          {"dropped_small_contours", stats.droppedSmall},
+          {"dropped_unwound_contours", stats.droppedUnwound},
+          {"dropped_flat_contours", stats.droppedFlat},
+          {"end_contours", stats.endContours},
+          {"flat_caps", stats.flatCaps},
+          {"clipped_caps", stats.clippedCaps},
+          {"annular_caps", stats.annularCaps},
+          {"caps", stats.caps},
+          {"seconds", stats.seconds}}},
+        {"events",
+         {{"starts", stats.starts},
+          {"ends", stats.ends},
+          {"forks", stats.forks},
+          {"merges", stats.merges},
+          {"saddles", stats.saddles},
+          {"rims", stats.rims},
+          {"unresolved", stats.unresolvedEvents},
+          {"unresolved_junctions", stats.unresolvedJunctions},
+          {"planes_added", stats.addedPlanes},
+          {"euler", stats.eventEuler},
+          {"built_euler", stats.caps - stats.saddles}}},
         {"graph", graphJson(reconstruction)},
         {"levels", json::array()},
     };
@@ -116,20 +151,35 @@ json validationReport(const Validation& v)
 {
     const Topology& t = v.topology;
     json j = {
-        {"hausdorff", v.symmetric.max}, {"mean", v.symmetric.mean}, {"rms", v.symmetric.rms}, {"voxel", v.voxel},
-        {"hausdorff_voxels", v.symmetric.max / v.voxel}, {"mean_voxels", v.symmetric.mean / v.voxel},
+        {"hausdorff", v.symmetric.max},
+        {"mean", v.symmetric.mean},
+        {"rms", v.symmetric.rms},
+        {"voxel", v.voxel},
+        {"hausdorff_voxels", v.symmetric.max / v.voxel},
+        {"mean_voxels", v.symmetric.mean / v.voxel},
         {"rms_voxels", v.symmetric.rms / v.voxel},
         {"mesh_to_reference", distanceJson(v.meshToReference, v.voxel)},
         {"reference_to_mesh", distanceJson(v.referenceToMesh, v.voxel)},
-        {"closed", t.closed()}, {"manifold", t.manifold()}, {"oriented", t.oriented()}, {"outward", t.outward()},
-        {"euler", t.euler}, {"components", t.components}, {"boundary_edges", t.boundaryEdges},
-        {"non_manifold_edges", t.nonManifoldEdges}, {"non_manifold_vertices", t.nonManifoldVertices},
+        {"closed", t.closed()},
+        {"manifold", t.manifold()},
+        {"oriented", t.oriented()},
+        {"outward", t.outward()},
+        {"euler", t.euler},
+        {"components", t.components},
+        {"boundary_edges", t.boundaryEdges},
+        {"non_manifold_edges", t.nonManifoldEdges},
+        {"non_manifold_vertices", t.nonManifoldVertices},
         {"misoriented_edges", t.misorientedEdges},
-        {"area", v.quality.area}, {"reference_area", v.referenceArea},
-        {"volume", t.signedVolume}, {"reference_volume", v.referenceVolume},
-        {"smallest_angle", v.quality.smallestAngle}, {"largest_aspect", v.quality.largestAspect},
-        {"degenerate_triangles", v.quality.degenerate}, {"triangles_below_5_degrees", v.quality.needles},
-        {"reference_triangles", v.referenceTriangles}, {"reference_seconds", v.referenceSeconds},
+        {"area", v.quality.area},
+        {"reference_area", v.referenceArea},
+        {"volume", t.signedVolume},
+        {"reference_volume", v.referenceVolume},
+        {"smallest_angle", v.quality.smallestAngle},
+        {"largest_aspect", v.quality.largestAspect},
+        {"degenerate_triangles", v.quality.degenerate},
+        {"triangles_below_5_degrees", v.quality.needles},
+        {"reference_triangles", v.referenceTriangles},
+        {"reference_seconds", v.referenceSeconds},
         {"seconds", v.seconds},
     };
     if (v.hasLevelSet) j["level_set"] = distanceJson(v.levelSet, v.voxel);

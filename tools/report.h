@@ -10,7 +10,7 @@
 
 namespace pipetile::tools {
 
-const char* axisName(int axis);       // "x", "y", "z"
+const char* axisName(int axis);        // "x", "y", "z"
 const char* tilerName(TilerKind kind); // "contour-tree", "optimal", "greedy"
 
 /// The report of `pipetile mesh` without its levels and its total "seconds": the volume, the

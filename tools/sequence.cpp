@@ -70,14 +70,16 @@ std::optional<FramePattern> FramePattern::parse(const std::string& text)
 std::string FramePattern::path(int frame) const
 {
     std::string digits = std::to_string(frame);
-    if (static_cast<int>(digits.size()) < mWidth) digits.insert(0, static_cast<std::size_t>(mWidth) - digits.size(), '0');
+    if (static_cast<int>(digits.size()) < mWidth)
+        digits.insert(0, static_cast<std::size_t>(mWidth) - digits.size(), '0');
     return mPrefix + digits + mSuffix;
 }
 
 std::vector<int> FramePattern::existingFrames() const
 {
     if (mSuffix.find('/') != std::string::npos)
-        throw UsageError("'" + mText + "': the frame number is in a folder's name; give --frames A-B to name the frames");
+        throw UsageError("'" + mText +
+                         "': the frame number is in a folder's name; give --frames A-B to name the frames");
     const std::string folder = mPrefix.substr(0, mPrefix.rfind('/') + 1); // with its '/', or empty
     const std::string namePrefix = mPrefix.substr(folder.size());
     std::set<int> frames;
@@ -88,7 +90,8 @@ std::vector<int> FramePattern::existingFrames() const
             name.compare(name.size() - mSuffix.size(), mSuffix.size(), mSuffix) != 0)
             continue;
         const std::string digits = name.substr(namePrefix.size(), name.size() - namePrefix.size() - mSuffix.size());
-        if (digits.size() > 9 || !std::all_of(digits.begin(), digits.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
+        if (digits.size() > 9 || !std::all_of(digits.begin(), digits.end(),
+                                              [](char c) { return std::isdigit(static_cast<unsigned char>(c)); }))
             continue;
         const int frame = std::stoi(digits);
         // Only the spelling path() gives: `smoke.0012.vdb` is frame 12 of ####, `smoke.12.vdb` is not.
@@ -100,7 +103,8 @@ std::vector<int> FramePattern::existingFrames() const
 std::vector<int> parseFrameRange(const std::string& spec)
 {
     const auto fail = [&](const std::string& why) {
-        return UsageError("--frames '" + spec + "': " + why + "; write A-B or A-B:STEP (frames 0 or more), or one frame A");
+        return UsageError("--frames '" + spec + "': " + why +
+                          "; write A-B or A-B:STEP (frames 0 or more), or one frame A");
     };
     const auto number = [&](const std::string& text) {
         if (text.empty() || text.size() > 9 ||
@@ -121,7 +125,10 @@ std::vector<int> parseFrameRange(const std::string& spec)
     return frames;
 }
 
-std::string frameError(int frame, const std::string& what) { return "frame " + std::to_string(frame) + ": " + what; }
+std::string frameError(int frame, const std::string& what)
+{
+    return "frame " + std::to_string(frame) + ": " + what;
+}
 
 json sequenceReport(const std::string& input, const std::string& output, const std::vector<FrameOutcome>& frames,
                     double seconds)
@@ -148,10 +155,16 @@ json sequenceReport(const std::string& input, const std::string& output, const s
         }
         lines.push_back(line);
     }
-    return {{"input", input}, {"output", output}, {"frames", frames.size()}, {"meshed", meshed},
-            {"skipped", skipped}, {"failed", failures.size()}, {"failures", failures},
+    return {{"input", input},
+            {"output", output},
+            {"frames", frames.size()},
+            {"meshed", meshed},
+            {"skipped", skipped},
+            {"failed", failures.size()},
+            {"failures", failures},
             {"totals", {{"vertices", vertices}, {"triangles", triangles}, {"seconds", frameSeconds}}},
-            {"seconds", seconds}, {"per_frame", lines}};
+            {"seconds", seconds},
+            {"per_frame", lines}};
 }
 
 } // namespace pipetile::tools

@@ -41,8 +41,8 @@ std::vector<int> parseFrameRange(const std::string& spec);
 struct FrameOutcome {
     int frame = 0;
     std::string input;
-    std::string status;   // "meshed", "skipped" (its outputs existed) or "failed"
-    std::string error;    // failed: the one-line message, naming the frame (frameError)
+    std::string status;    // "meshed", "skipped" (its outputs existed) or "failed"
+    std::string error;     // failed: the one-line message, naming the frame (frameError)
     nlohmann::json report; // meshed: the frame's report (meshFrame's)
 };
 

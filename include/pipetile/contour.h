@@ -46,7 +46,11 @@ struct RaySet {
     static constexpr int kFoldDepth = 2; // a sector is halved at most twice for a fold
 
     RaySet(int baseRays = 8, int level = 0, std::shared_ptr<const AddedRays> added = nullptr)
-        : baseRays(baseRays), level(level), added(std::move(added)) {}
+        : baseRays(baseRays),
+          level(level),
+          added(std::move(added))
+    {
+    }
 
     int baseRays; // n0, at least 3 (with 2 rays, F and B could not be told apart)
     int level;
@@ -84,15 +88,15 @@ enum class EdgeType : std::uint8_t {
 };
 
 struct Crossing {
-    int ray = 0;              // ray index in [0, RaySet::count())
+    int ray = 0; // ray index in [0, RaySet::count())
     CrossingKind kind = CrossingKind::InOut;
-    int depth = 0;            // order along its ray, 0 = nearest the centre (integer, for the tree)
-    double crackT = 0.0;      // distance from the centre to the loop's polygon: fixes order
-    double t = 0.0;           // distance from the centre to the interpolated surface: fixes position
-    glm::dvec2 point{0.0};    // in-plane position, pixel units
-    int segment = 0;          // walk position: the loop polygon's segment the ray crosses, and
-    long long along = 0;      // the order along it, in grid units of the ray set (refinement
-                              // merges new crossings into old ones by it)
+    int depth = 0;         // order along its ray, 0 = nearest the centre (integer, for the tree)
+    double crackT = 0.0;   // distance from the centre to the loop's polygon: fixes order
+    double t = 0.0;        // distance from the centre to the interpolated surface: fixes position
+    glm::dvec2 point{0.0}; // in-plane position, pixel units
+    int segment = 0;       // walk position: the loop polygon's segment the ray crosses, and
+    long long along = 0;   // the order along it, in grid units of the ray set (refinement
+                           // merges new crossings into old ones by it)
 };
 
 /// A contour: the crossings of one boundary loop in walk order, starting at the outermost InOut
@@ -165,11 +169,13 @@ double polygonArea(const std::vector<glm::dvec2>& polygon);
 
 /// How deep a point lies inside the loop and every polygon at once: its distance to the nearest
 /// of their edges, or -1 if it lies outside any.
-double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons, const glm::dvec2& p);
+double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons,
+                   const glm::dvec2& p);
 
 /// The point of largest commonDepth, sought on a 64 x 64 grid over the box they share; returns its
 /// depth (-1 where no point of the grid lies inside them all, and `point` is left as it was).
-double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons, glm::dvec2& point);
+double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons,
+                          glm::dvec2& point);
 
 /// Distance from a point to a closed polygon.
 double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);

@@ -53,10 +53,10 @@ struct TreeNode {
 
 /// Integer description of a contour: what the tree builder and the traversal may look at.
 struct ContourString {
-    int rays = 0;                 // n
-    std::vector<EdgeType> edges;  // edges[i] joins crossing i and crossing i+1 (cyclically)
-    std::vector<int> ray;         // ray index of each crossing
-    std::vector<int> depth;       // order of each crossing along its ray, 0 = nearest the centre
+    int rays = 0;                // n
+    std::vector<EdgeType> edges; // edges[i] joins crossing i and crossing i+1 (cyclically)
+    std::vector<int> ray;        // ray index of each crossing
+    std::vector<int> depth;      // order of each crossing along its ray, 0 = nearest the centre
 };
 
 /// The integer description of a contour (its geometry left out).

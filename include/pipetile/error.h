@@ -28,7 +28,10 @@ enum class Setting {
 class Error : public std::runtime_error {
 public:
     explicit Error(const std::string& message, std::vector<Setting> settings = {})
-        : std::runtime_error(message), mSettings(std::move(settings)) {}
+        : std::runtime_error(message),
+          mSettings(std::move(settings))
+    {
+    }
     const std::vector<Setting>& settings() const { return mSettings; }
 
 private:
@@ -66,8 +69,8 @@ namespace detail {
 /// Checks an internal invariant whatever NDEBUG says: throws InternalError naming `what` (a string
 /// literal saying what broke), the condition and file:line if it does not hold. One predictable
 /// branch where it holds, and the message is built only when it does not: cheap in hot loops.
-#define PIPETILE_ASSERT(condition, what)                                                           \
-    do {                                                                                           \
-        if (__builtin_expect(!(condition), 0))                                                     \
-            ::pipetile::detail::throwInternalError(#condition, what, __FILE__, __LINE__);          \
+#define PIPETILE_ASSERT(condition, what)                                                                               \
+    do {                                                                                                               \
+        if (__builtin_expect(!(condition), 0))                                                                         \
+            ::pipetile::detail::throwInternalError(#condition, what, __FILE__, __LINE__);                              \
     } while (false)

@@ -50,11 +50,11 @@ struct SlabPiece {
 
 /// The loops of one plane as the graph sees them.
 struct PlaneLoops {
-    double w = 0.0;                           // index-space position along the slicing axis
-    std::vector<const BoundaryLoop*> loops;   // the plane's contours (dropped loops excluded)
-    std::vector<glm::dvec2> centers;          // their central points
+    double w = 0.0;                             // index-space position along the slicing axis
+    std::vector<const BoundaryLoop*> loops;     // the plane's contours (dropped loops excluded)
+    std::vector<glm::dvec2> centers;            // their central points
     std::vector<const RadialProfile*> profiles; // their radial profiles, all along the same
-                                              // directions (or none: no shape test)
+                                                // directions (or none: no shape test)
 };
 
 /// The pieces of the slab between `below` and `above` (below.w < above.w), each with its kind.
@@ -69,12 +69,12 @@ EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneL
 /// adjacent in w holds the pieces that join them.
 struct ContourGraph {
     struct Slab {
-        int below = -1, above = -1;     // plane indices
+        int below = -1, above = -1; // plane indices
         std::vector<SlabPiece> pieces;
     };
-    std::vector<int> order;             // plane indices by increasing w
-    std::vector<Slab> slabs;            // between order[k] and order[k + 1]
-    int addedPlanes = 0;                // planes added by bisection
+    std::vector<int> order;  // plane indices by increasing w
+    std::vector<Slab> slabs; // between order[k] and order[k + 1]
+    int addedPlanes = 0;     // planes added by bisection
 };
 
 /// How far a band's two contours differ in shape, each seen from its own central point: the

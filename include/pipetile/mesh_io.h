@@ -16,12 +16,12 @@
 namespace pipetile {
 
 struct MeshWriteOptions {
-    bool binary = true;               // PLY and STL in binary, else as text (OBJ and OFF are text)
-    std::vector<glm::dvec3> colors;   // optional per-vertex RGB in [0, 1] (PLY, OFF, OBJ)
-    std::vector<glm::dvec3> normals;  // optional per-vertex unit normals, outward (PLY, OBJ; STL
-                                      // keeps its facet normals, OFF holds none)
-    std::vector<double> quality;      // optional per-vertex scalar, PLY's `quality` property
-                                      // (MeshLab reads it): the distance to the isosurface
+    bool binary = true;              // PLY and STL in binary, else as text (OBJ and OFF are text)
+    std::vector<glm::dvec3> colors;  // optional per-vertex RGB in [0, 1] (PLY, OFF, OBJ)
+    std::vector<glm::dvec3> normals; // optional per-vertex unit normals, outward (PLY, OBJ; STL
+                                     // keeps its facet normals, OFF holds none)
+    std::vector<double> quality;     // optional per-vertex scalar, PLY's `quality` property
+                                     // (MeshLab reads it): the distance to the isosurface
 };
 
 /// True for the extensions pipetile writes: .ply .obj .stl .off (any case).

@@ -38,40 +38,40 @@ enum class TilerKind {
 };
 
 struct MeshOptions {
-    SliceOptions slicing;          // axis and spacing of the slices
-    int baseRays = 8;              // n0: rays at level 0, in [3, 4096]
-    int levels = 4;                // levels of detail: 0 .. levels-1, in [1, 16]
-    double minContourArea = 1.0;   // pixels^2: smaller cross-sections (below one pixel) are dropped
-                                   // (and counted)
-    int threads = 0;               // 0: all cores; results do not depend on it
+    SliceOptions slicing;                     // axis and spacing of the slices
+    int baseRays = 8;                         // n0: rays at level 0, in [3, 4096]
+    int levels = 4;                           // levels of detail: 0 .. levels-1, in [1, 16]
+    double minContourArea = 1.0;              // pixels^2: smaller cross-sections (below one pixel) are dropped
+                                              // (and counted)
+    int threads = 0;                          // 0: all cores; results do not depend on it
     TilerKind tiler = TilerKind::ContourTree; // what tiles the bands (caps are the same for all)
-    bool everySlice = false;       // tile every slice at every level, as the paper does; by
-                                   // default a level skips the slices that its kept neighbours
-                                   // predict within its rays' own error (Reconstruction)
+    bool everySlice = false;                  // tile every slice at every level, as the paper does; by
+                                              // default a level skips the slices that its kept neighbours
+                                              // predict within its rays' own error (Reconstruction)
 };
 
 /// One level of detail and what it took.
 struct LevelMesh {
     int level = 0;
-    int rays = 0;                  // rays per contour at this level (the level's own)
-    long long addedRays = 0;       // rays the tubes added where folds hide detail, summed over
-                                   // tubes (each casts its added rays on all its contours)
+    int rays = 0;            // rays per contour at this level (the level's own)
+    long long addedRays = 0; // rays the tubes added where folds hide detail, summed over
+                             // tubes (each casts its added rays on all its contours)
     TriangleMesh mesh;
-    double seconds = 0.0;          // ray casting and tiling of this level
-    double castingSeconds = 0.0;   // of which casting rays (sampling, root finding, edge types);
-                                   // for a refinement only the new rays', merged into the contours
-    double tilingSeconds = 0.0;    // of which the tiler's: trees and traversal, or the DP / greedy
-    std::size_t tilingBytes = 0;   // the tiler's working structures, summed over all bands
-    int contours = 0;              // contours tiled
-    int skippedContours = 0;       // contours of the tubes this level skips: their neighbours
-                                   // predict them within the level's own error
-    int ambiguousContours = 0;     // contours with more than one F edge in some sector
+    double seconds = 0.0;           // ray casting and tiling of this level
+    double castingSeconds = 0.0;    // of which casting rays (sampling, root finding, edge types);
+                                    // for a refinement only the new rays', merged into the contours
+    double tilingSeconds = 0.0;     // of which the tiler's: trees and traversal, or the DP / greedy
+    std::size_t tilingBytes = 0;    // the tiler's working structures, summed over all bands
+    int contours = 0;               // contours tiled
+    int skippedContours = 0;        // contours of the tubes this level skips: their neighbours
+                                    // predict them within the level's own error
+    int ambiguousContours = 0;      // contours with more than one F edge in some sector
     long long ambiguousSectors = 0; // sectors with more than one F edge, over all contours
-    long long crossings = 0;       // vertices on contours (the rest are end-cap apexes)
+    long long crossings = 0;        // vertices on contours (the rest are end-cap apexes)
     int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
-    int areaJunctionParts = 0;     // junction parts tiled by the minimum-area tiler: their polygon
-                                   // gave no contour (it winds around no point inside it)
-    long long flips = 0;           // edges flipped to remove needles (quality.h, flipNeedles)
+    int areaJunctionParts = 0;      // junction parts tiled by the minimum-area tiler: their polygon
+                                    // gave no contour (it winds around no point inside it)
+    long long flips = 0;            // edges flipped to remove needles (quality.h, flipNeedles)
 };
 
 /// What the level-independent pass found; degenerate geometry is counted here, not thrown.
@@ -114,18 +114,18 @@ struct ReconstructionStats {
 /// Positions are index-space w along the slicing axis.
 struct Skeleton {
     struct Segment {
-        bool hole = false;           // the inner wall of a hollow pipe (or a void)
+        bool hole = false; // the inner wall of a hollow pipe (or a void)
         double wFirst = 0.0, wLast = 0.0;
         int contours = 0;
-        const char* bottom = "cap";  // "cap", "flat cap", "rim" or "junction"
+        const char* bottom = "cap"; // "cap", "flat cap", "rim" or "junction"
         const char* top = "cap";
         int bottomJunction = -1, topJunction = -1;
     };
     struct Junction {
         EventKind kind = EventKind::Fork;
-        double w = 0.0;              // the single contour's plane
-        double crotchW = 0.0;        // the hub's, on the surface where it got there
-        int single = -1;             // segment ids
+        double w = 0.0;       // the single contour's plane
+        double crotchW = 0.0; // the hub's, on the surface where it got there
+        int single = -1;      // segment ids
         std::vector<int> partners;
     };
     /// A slab piece whose pattern no construction handles: its contours are capped one by one.
@@ -184,10 +184,10 @@ private:
     static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)
     struct SliceLoop {
         BoundaryLoop loop;
-        LoopView view; // from its central point: what every level's rays are cut against
-        RadialProfile profile; // along profileDirections(): the graph's shape test, slice choice
-        int group = -1; // its tube's ray group (contours tiled together share their rays); -1:
-                        // in no tube
+        LoopView view;          // from its central point: what every level's rays are cut against
+        RadialProfile profile;  // along profileDirections(): the graph's shape test, slice choice
+        int group = -1;         // its tube's ray group (contours tiled together share their rays); -1:
+                                // in no tube
         int fromLevel = kNever; // the coarsest level that tiles it; every finer level does too
     };
     struct TubeEnd {
@@ -208,24 +208,24 @@ private:
     /// A fork or merge: one contour (`single`) split into arcs by cut points on its polygon, one
     /// arc per contour on the other side (`many`), each arc tiled to its partner. Decided once.
     struct Junction : JunctionArcs {
-        EventKind kind = EventKind::Fork;          // Fork: `single` lies below `many`; Merge: above;
-                                                   // Rim: a wall and its holes in one plane, where
-                                                   // their tubes begin (bottom) or end (top)
-        bool top = false;                          // a Rim at the tubes' top ends
-        std::pair<int, int> single{-1, -1};        // (plane, loop)
-        std::pair<int, int> inner{-1, -1};         // a ring's hole inside `single`, or none
-        std::vector<std::pair<int, int>> many;     // the partners: arc k goes to many[owner[k]]
-        std::vector<int> chordArcs;                // no hub: the arcs a chord closes (a gap's
-                                                   // arc; for a ring every arc, closed from cut
-                                                   // k + 1 of the wall to the hole's, and back)
+        EventKind kind = EventKind::Fork;      // Fork: `single` lies below `many`; Merge: above;
+                                               // Rim: a wall and its holes in one plane, where
+                                               // their tubes begin (bottom) or end (top)
+        bool top = false;                      // a Rim at the tubes' top ends
+        std::pair<int, int> single{-1, -1};    // (plane, loop)
+        std::pair<int, int> inner{-1, -1};     // a ring's hole inside `single`, or none
+        std::vector<std::pair<int, int>> many; // the partners: arc k goes to many[owner[k]]
+        std::vector<int> chordArcs;            // no hub: the arcs a chord closes (a gap's
+                                               // arc; for a ring every arc, closed from cut
+                                               // k + 1 of the wall to the hole's, and back)
         // Nodes: the junction's own vertices, the same at every level: the cuts (node k), the
         // hole's cuts (node n + k), then the hub (where the chords from the cuts meet: their
         // mean) or the chords' middles, in chordArcs' order. Hub and middles start in the single
         // contour's plane and move along the axis toward the partners onto the surface (the
         // crotch), if they get there; a chord never joins two cuts directly, so no cap of the
         // same contour can share its edge.
-        std::vector<glm::dvec2> nodePoints;        // in-plane
-        std::vector<glm::dvec3> nodeIndex;         // index space
+        std::vector<glm::dvec2> nodePoints; // in-plane
+        std::vector<glm::dvec3> nodeIndex;  // index space
         /// Partner k's side of the junction as one polygon, a composite contour (TOPOLOGY.md):
         /// its arcs of `single` (and of `inner`) closed through the hub or the chords' middles,
         /// counterclockwise. Cast with the partner's rays at every level, it is tiled to the
@@ -238,14 +238,16 @@ private:
             };
             std::vector<Corner> corners;
             std::vector<glm::dvec2> polygon; // the corners' points
-            LoopView view;   // from the partner's central point, when the polygon winds once
-                             // around it (centreParts); else no polygon: the minimum-area tiler
+            LoopView view;                   // from the partner's central point, when the polygon winds once
+                                             // around it (centreParts); else no polygon: the minimum-area tiler
         };
-        std::vector<Part> parts;                   // per partner
+        std::vector<Part> parts; // per partner
     };
 
     // The stages of the constructor, in order.
-    struct SliceCounts { int small = 0, unwound = 0; };
+    struct SliceCounts {
+        int small = 0, unwound = 0;
+    };
     std::vector<SliceLoop> traceContours(double w, SliceCounts& counts) const;
     /// The finest level's ray count, at most 256 (the cost of comparing profiles grows with it).
     int profileDirections() const;
@@ -271,7 +273,7 @@ private:
     Volume mVolume;
     MeshOptions mOptions;
     SlicePlan mPlan;
-    std::vector<double> mPositions;            // the plan's slices, then the end contours' planes
+    std::vector<double> mPositions;             // the plan's slices, then the end contours' planes
     std::vector<std::vector<SliceLoop>> mLoops; // per plane of mPositions
     std::vector<Tube> mTubes;
     std::vector<Junction> mJunctions;

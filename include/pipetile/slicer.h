@@ -21,8 +21,8 @@ namespace pipetile {
 class SlicePlane;
 
 namespace detail {
-struct PixelWindow;                                 // detail/pixel_window.h
-PixelWindow pixelWindow(const SlicePlane& plane);   // the boundary walk's fast path
+struct PixelWindow;                               // detail/pixel_window.h
+PixelWindow pixelWindow(const SlicePlane& plane); // the boundary walk's fast path
 } // namespace detail
 
 enum class Axis { X = 0, Y = 1, Z = 2, Auto = 3 };
@@ -34,12 +34,12 @@ struct SliceOptions {
 
 /// Where the slices go. Plain data: cheap to copy, no OpenVDB types.
 struct SlicePlan {
-    int axis = 2;                    // 0, 1, 2 for x, y, z (never Auto)
-    std::vector<double> positions;   // index coordinate w of each slice, increasing
-    glm::ivec2 pixelMin{0}, pixelMax{0}; // in-plane pixel box (inclusive): the active bounding box
-                                     // padded by one pixel; everything outside reads as outside
+    int axis = 2;                                          // 0, 1, 2 for x, y, z (never Auto)
+    std::vector<double> positions;                         // index coordinate w of each slice, increasing
+    glm::ivec2 pixelMin{0}, pixelMax{0};                   // in-plane pixel box (inclusive): the active bounding box
+                                                           // padded by one pixel; everything outside reads as outside
     std::map<int, std::vector<glm::ivec2>> leafFootprints; // per 8-voxel slab along w that holds
-                                     // leaf nodes, by its w origin: the (u, v) origins of its leaves
+        // leaf nodes, by its w origin: the (u, v) origins of its leaves
 };
 
 /// Index-space point of in-plane coordinates (u, v) on the plane w of `axis`.

@@ -13,18 +13,18 @@ namespace pipetile {
 
 /// Combinatorial checks of a triangle mesh; integer logic except the enclosed volume.
 struct Topology {
-    long long vertices = 0;        // referenced by some triangle
+    long long vertices = 0; // referenced by some triangle
     long long edges = 0;
     long long triangles = 0;
-    long long boundaryEdges = 0;   // edges with one triangle
-    long long nonManifoldEdges = 0; // edges with three or more triangles
-    long long nonManifoldVertices = 0; // vertices whose triangles do not form one fan
-    long long misorientedEdges = 0; // edges whose two triangles run the same way along them
+    long long boundaryEdges = 0;                           // edges with one triangle
+    long long nonManifoldEdges = 0;                        // edges with three or more triangles
+    long long nonManifoldVertices = 0;                     // vertices whose triangles do not form one fan
+    long long misorientedEdges = 0;                        // edges whose two triangles run the same way along them
     std::array<long long, 2> firstNonManifoldEdge{-1, -1}; // the lowest-numbered one's vertices; -1: none
     long long firstNonManifoldVertex = -1;                 // the lowest-numbered one; -1: none
-    int components = 0;            // connected by shared edges
-    long long euler = 0;           // V - E + F
-    double signedVolume = 0.0;     // world units^3; > 0 when closed and normals point outward
+    int components = 0;                                    // connected by shared edges
+    long long euler = 0;                                   // V - E + F
+    double signedVolume = 0.0;                             // world units^3; > 0 when closed and normals point outward
     bool closed() const { return boundaryEdges == 0; }
     bool manifold() const { return nonManifoldEdges == 0 && nonManifoldVertices == 0; }
     bool oriented() const { return misorientedEdges == 0; }
@@ -46,12 +46,12 @@ struct DistanceStats {
 
 /// Shape of the triangles.
 struct TriangleQuality {
-    double area = 0.0;             // world units^2
-    double smallestAngle = 0.0;    // degrees, over non-degenerate triangles
-    double largestAspect = 0.0;    // longest edge / shortest altitude * sqrt(3)/2: 1 for equilateral
-    long long degenerate = 0;      // area below 1e-12 of the longest edge squared
-    long long needles = 0;         // triangles with an angle below kNeedleDegrees (5), degenerate
-                                   // ones included
+    double area = 0.0;          // world units^2
+    double smallestAngle = 0.0; // degrees, over non-degenerate triangles
+    double largestAspect = 0.0; // longest edge / shortest altitude * sqrt(3)/2: 1 for equilateral
+    long long degenerate = 0;   // area below 1e-12 of the longest edge squared
+    long long needles = 0;      // triangles with an angle below kNeedleDegrees (5), degenerate
+                                // ones included
 };
 
 /// Precondition as checkTopology.
@@ -74,17 +74,17 @@ DistanceStats levelSetDistanceAtVertices(const Volume& volume, const TriangleMes
 /// `voxel` (the smallest voxel edge) for voxels.
 struct Validation {
     double voxel = 1.0;
-    DistanceStats meshToReference;  // from samples of the mesh to the reference isosurface
-    DistanceStats referenceToMesh;  // from samples of the reference to the mesh
-    DistanceStats symmetric;        // max of both maxima; area-weighted mean and RMS of both
+    DistanceStats meshToReference; // from samples of the mesh to the reference isosurface
+    DistanceStats referenceToMesh; // from samples of the reference to the mesh
+    DistanceStats symmetric;       // max of both maxima; area-weighted mean and RMS of both
     bool hasLevelSet = false;
-    DistanceStats levelSet;         // |level set| at the mesh samples (level sets only)
+    DistanceStats levelSet; // |level set| at the mesh samples (level sets only)
     Topology topology;
     TriangleQuality quality;
     double referenceArea = 0.0, referenceVolume = 0.0; // of the isosurface
     long long referenceTriangles = 0;
-    double referenceSeconds = 0.0;  // volumeToMesh and quad splitting, this run
-    double seconds = 0.0;           // this validation, reference excluded
+    double referenceSeconds = 0.0;      // volumeToMesh and quad splitting, this run
+    double seconds = 0.0;               // this validation, reference excluded
     std::vector<double> vertexDistance; // per mesh vertex, distance to the reference
 };
 

@@ -35,8 +35,8 @@ struct VolumeOptions {
 /// Name, type and class of one grid in a file, as `pipetile info` lists them.
 struct GridSummary {
     std::string name;
-    std::string valueType;   // "float", "vec3s", ...
-    std::string gridClass;   // "level set", "fog volume", "unknown"
+    std::string valueType; // "float", "vec3s", ...
+    std::string gridClass; // "level set", "fog volume", "unknown"
     long long activeVoxels = 0;
     glm::ivec3 bboxMin{0}, bboxMax{0}; // active voxel bounding box, index space, inclusive
     glm::dvec3 voxelSize{1.0};
@@ -54,16 +54,16 @@ public:
     Volume() = default;
     explicit Volume(std::shared_ptr<const Impl> impl) : mImpl(std::move(impl)) {}
 
-    const std::string& source() const;   // file path, or "sample:<name>"
+    const std::string& source() const; // file path, or "sample:<name>"
     const std::string& gridName() const;
     VolumeClass volumeClass() const;
     double iso() const;
-    glm::dvec3 voxelSize() const;        // world units per voxel along x, y, z of index space
-    double smallestVoxel() const;        // smallest voxel edge, the unit of "voxels" in reports
-    glm::ivec3 bboxMin() const;          // active voxel bounding box, index space, inclusive
+    glm::dvec3 voxelSize() const; // world units per voxel along x, y, z of index space
+    double smallestVoxel() const; // smallest voxel edge, the unit of "voxels" in reports
+    glm::ivec3 bboxMin() const;   // active voxel bounding box, index space, inclusive
     glm::ivec3 bboxMax() const;
-    double background() const;           // the value of empty space (inactive voxels)
-    double minValue() const;             // over active values and the background
+    double background() const; // the value of empty space (inactive voxels)
+    double minValue() const;   // over active values and the background
     double maxValue() const;
     /// Active voxels inside the surface at iso(): below kFewestObjectVoxels the mesh is specks.
     long long insideVoxels() const;
@@ -108,10 +108,10 @@ struct DenseVolume {
                                    // varies fastest): values[(i * dims.y + j) * dims.z + k] is
                                    // voxel (i, j, k), as numpy's array[i, j, k]
     glm::ivec3 dims{0};
-    glm::dmat4 indexToWorld{1.0};  // world = indexToWorld * (i, j, k, 1), column vectors (glm's and
-                                   // nibabel's convention); last row (0, 0, 0, 1), invertible
+    glm::dmat4 indexToWorld{1.0};                    // world = indexToWorld * (i, j, k, 1), column vectors (glm's and
+                                                     // nibabel's convention); last row (0, 0, 0, 1), invertible
     VolumeClass volumeClass = VolumeClass::LevelSet; // the values' meaning: a dense array carries
-                                   // no class, so the caller names it
+                                                     // no class, so the caller names it
 };
 
 /// Builds a sparse grid from a dense block and checks it as readVolume does. The background, the

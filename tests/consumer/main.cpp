@@ -15,8 +15,8 @@ int main()
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j)
             for (int k = 0; k < n; ++k)
-                distance[(static_cast<std::size_t>(i) * n + j) * n + k] =
-                    static_cast<float>(std::sqrt((i - 9.5) * (i - 9.5) + (j - 9.5) * (j - 9.5) + (k - 9.5) * (k - 9.5)) - 6.0);
+                distance[(static_cast<std::size_t>(i) * n + j) * n + k] = static_cast<float>(
+                    std::sqrt((i - 9.5) * (i - 9.5) + (j - 9.5) * (j - 9.5) + (k - 9.5) * (k - 9.5)) - 6.0);
     pipetile::DenseVolume dense;
     dense.values = distance.data();
     dense.dims = glm::ivec3(n);
@@ -28,8 +28,7 @@ int main()
         const pipetile::LevelMesh level = reconstruction.buildLevel(1);
         const pipetile::Topology topology = pipetile::checkTopology(level.mesh);
         std::printf("consumer: %zu vertices, %zu triangles, closed %d, Euler characteristic %lld\n",
-                    level.mesh.vertices.size(), level.mesh.triangles.size(), topology.closed() ? 1 : 0,
-                    topology.euler);
+                    level.mesh.vertices.size(), level.mesh.triangles.size(), topology.closed() ? 1 : 0, topology.euler);
         // A sphere: closed, one component, V - E + F = 2.
         return topology.closed() && topology.components == 1 && topology.euler == 2 ? 0 : 1;
     } catch (const pipetile::Error& e) {

@@ -14,13 +14,13 @@ namespace pipetile::detail {
 /// A signed field on a small pixel image (negative inside). Pixels outside the image read as +1
 /// (outside).
 struct FieldImage {
-    glm::ivec2 origin{0};       // (u, v) of the first pixel
+    glm::ivec2 origin{0}; // (u, v) of the first pixel
     int width = 0, height = 0;
     std::vector<double> values; // row-major, width * height
 
     double value(int u, int v) const;
     bool inside(int u, int v) const { return value(u, v) < 0.0; }
-    double sample(const glm::dvec2& uv) const; // bilinear
+    double sample(const glm::dvec2& uv) const;       // bilinear
     void cell(int u, int v, double values[4]) const; // (u, v), (u + 1, v), (u, v + 1), (u + 1, v + 1)
 };
 
