@@ -95,7 +95,6 @@ std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const
     return rank;
 }
 
-// Where `p` lies along segment ab: 0 at a, 1 at b.
 // How far apart a band between two loops of one tube puts the points that rays of one direction
 // meet, each from its own loop's central point: the mean distance between the two profiles'
 // nearest and farthest crossings, in-plane, over the directions both have.
@@ -115,6 +114,7 @@ double misregistration(const LoopView& a, const RadialProfile& p, const LoopView
     return count > 0 ? sum / static_cast<double>(count) : std::numeric_limits<double>::infinity();
 }
 
+// Where `p` lies along segment ab: 0 at a, 1 at b.
 double placeOn(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& p)
 {
     const glm::dvec2 ab = b - a;
@@ -550,7 +550,6 @@ void Reconstruction::composeParts(Junction& junction) const
         for (const Part::Corner& c : part.corners)
             part.polygon.push_back(c.member < 0 ? junction.nodePoints[c.node]
                                                 : (c.member == 0 ? single : *inner).view.polygon[c.point]);
-        part.view.hole = partner.loop.hole();
         junction.parts.push_back(std::move(part));
     }
 }
@@ -1551,7 +1550,7 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         }
     }
     // A junction part's crossing can fall on a vertex of the single contour (collapseShortEdges);
-    // a millionth of a voxel is far below any edge the rays make (the aorta's shortest is 4e-5
+    // a millionth of a voxel is far below any edge the rays make (the aorta's shortest is 5e-5
     // voxel) and far above rounding.
     collapseShortEdges(mesh, 1e-6 * mVolume.smallestVoxel());
     // The baselines stay as their papers give them (the optimal tiler's is the least area).

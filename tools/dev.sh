@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(cmake g++ ccache libopenvdb-dev libboost-iostreams-dev libtbb-dev libglm-dev
+packages=(cmake g++ ccache clang-format libopenvdb-dev libboost-iostreams-dev libtbb-dev libglm-dev
           libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev nlohmann-json3-dev libmeshoptimizer-dev
           libtinygltf-dev
           libopenvdb-tools libboost-python-dev pybind11-dev python3-pybind11 python3-numpy python3-pytest
