@@ -17,6 +17,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -93,6 +94,19 @@ std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const
         for (std::size_t r = 0; r < byDistance.size(); ++r) rank[x][byDistance[r].second] = static_cast<int>(r);
     }
     return rank;
+}
+
+// End contours sit a quarter voxel inside where the object ends (addEndContour).
+constexpr double kEndInset = 0.25;
+
+// Pixels apart, on average, that a band to an end contour may pair points (misregistration): the
+// bands' own bound on shape change (correspond).
+constexpr double kOutOfRegister = 3.0;
+
+// How far past a tube's last contour its end is sought: a slice spacing and two voxels.
+double endReach(const MeshOptions& options)
+{
+    return options.slicing.spacingVoxels + 2.0;
 }
 
 // How far apart a band between two loops of one tube puts the points that rays of one direction
@@ -644,76 +658,115 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     return centroidIn && centroidClearance >= 1.0 ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
 }
 
-void Reconstruction::closeEnds()
+std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(const SliceLoop& member, bool hole, double w)
 {
-    // Tube ends that no junction joins. Where the axis through the end contour's central point
+    std::vector<BoundaryLoop> loops = traceBoundaries(SlicePlane(mVolume, mPlan, w));
+    const int best = nearest(
+        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
+        [&](int k) {
+            const BoundaryLoop& candidate = loops[k];
+            return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
+                   (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
+                    overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0);
+        });
+    if (best < 0) return std::nullopt;
+    // Its own central point, from which the apex is highest on a rounded end; but where
+    // the band from the last contour to it would pair points more than 3 pixels apart on
+    // average (as bands may change shape, correspond), the point that follows the last
+    // contour's as along the tube (followCentres), if that pairs them closer: a C's own
+    // point can lie elsewhere in it (the twisting C's end band turned a quarter turn, 13.9
+    // pixels out of register and 6.2 voxels off the surface).
+    SliceLoop endLoop{std::move(loops[best]), {}, {}};
+    const glm::dvec2 center = centralPoint(endLoop.loop);
+    endLoop.view = viewFrom(endLoop.loop, center);
+    endLoop.profile = radialProfile(endLoop.view, profileDirections());
+    const double own = endLoop.view.winding == 1
+                           ? misregistration(member.view, member.profile, endLoop.view, endLoop.profile)
+                           : std::numeric_limits<double>::infinity();
+    const glm::dvec2 followed = followedCentre(member, endLoop);
+    if (own > kOutOfRegister && followed != center) {
+        LoopView view = viewFrom(endLoop.loop, followed);
+        RadialProfile profile = view.winding == 1 ? radialProfile(view, profileDirections()) : RadialProfile{};
+        if (view.winding == 1 && misregistration(member.view, member.profile, view, profile) < own) {
+            endLoop.view = std::move(view);
+            endLoop.profile = std::move(profile);
+        }
+    }
+    if (endLoop.view.winding != 1) return std::nullopt;
+    return endLoop;
+}
+
+bool Reconstruction::addEndContour(Tube& tube, bool top)
+{
+    // A tube end that no junction joins. Where the axis through the end contour's central point
     // leaves the object, an end contour a quarter voxel inside that point is added, so caps sit
     // within a quarter voxel of flat ends and follow rounded ones; the apex is then sought again
     // from it. (Closer in, the field's rounding at the rim of a flat end shrinks the end contour:
-    // the bean's top level is 0.75 voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.)
-    const double reach = mOptions.slicing.spacingVoxels + 2.0;
-    constexpr double kEndInset = 0.25;
+    // the bean's top level is 0.75 voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.) Where the
+    // region inside the contour reaches farther than that axis (a flat end twisted, so the axis
+    // leaves through the side: the twisting C's cap was 1.65 voxels below its end), the end
+    // contour goes a quarter voxel inside the farthest reach instead, at most a slice spacing on.
+    // The next call goes on from it: a twisted end gets two, the first from the axis.
+    TubeEnd& end = top ? tube.top : tube.bottom;
+    const double direction = top ? 1.0 : -1.0;
+    const double reach = endReach(mOptions);
+    const auto [s, l] = top ? tube.members.back() : tube.members.front();
+    const SliceLoop& member = mLoops[s][l];
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    double wApex = plane.w();
+    const double sign = tube.hole ? -1.0 : 1.0;
+    end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
+    end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
+    if (!end.hasApex) return false;
+    // A cap leaves out what the region reaches past its apex. On a rounded end that is little
+    // (the bean's tilted domes: 0.12 voxel); half a voxel or more is an end the axis left early
+    // (the C twisting 15 degrees per voxel: its top apex 0.33 voxel past the last slice, its flat
+    // end 1.0, capped at the slice without an end contour).
+    constexpr double kCapSlack = 0.5;
+    double wFar = wApex, wTarget = wApex;
+    if (farthestReach(plane, member.loop, direction, reach, wFar, sign) && direction * (wFar - wApex) > kCapSlack)
+        wTarget = wFar;
+    // The end band is held to the bands' rule (correspond): halved, down to half a voxel, while
+    // it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
+    // degrees of turn in one step, was 1.07 voxels off).
+    double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
+    if (step < 0.25) return false;
+    std::optional<SliceLoop> endLoop = endContourAt(member, tube.hole, plane.w() + direction * step);
+    while (endLoop && step > 0.5 &&
+           misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister) {
+        std::optional<SliceLoop> closer = endContourAt(member, tube.hole, plane.w() + direction * 0.5 * step);
+        if (!closer) break;
+        endLoop = std::move(closer);
+        step *= 0.5;
+    }
+    if (!endLoop) return false;
+    const double wEnd = plane.w() + direction * step;
+    const glm::dvec2 center = endLoop->view.center;
+    mPositions.push_back(wEnd);
+    mLoops.push_back({}); // `member` dangles from here on
+    mLoops.back().push_back(std::move(*endLoop));
+    const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
+    if (top)
+        tube.members.push_back(added);
+    else
+        tube.members.insert(tube.members.begin(), added);
+    ++mStats.endContours;
+    double wAgain = wEnd;
+    end.hasApex = findApex(SlicePlane(mVolume, mPlan, wEnd), center, direction, 2.0 * kEndInset + 1.0, wAgain, sign);
+    end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
+    return true;
+}
+
+void Reconstruction::closeEnds()
+{
     for (Tube& tube : mTubes) {
         for (const bool top : {false, true}) {
-            TubeEnd& end = top ? tube.top : tube.bottom;
-            if (end.junction >= 0) continue;
-            const double direction = top ? 1.0 : -1.0;
-            const auto [s, l] = top ? tube.members.back() : tube.members.front();
-            const SliceLoop& member = mLoops[s][l];
-            const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-            double wApex = plane.w();
-            const double sign = tube.hole ? -1.0 : 1.0;
-            end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
-            end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
-            const double wEnd = wApex - direction * kEndInset;
-            if (!end.hasApex || direction * (wEnd - plane.w()) < 0.25) continue;
-            const SlicePlane endPlane(mVolume, mPlan, wEnd);
-            std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
-            const int best = nearest(
-                static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
-                [&](int k) {
-                    const BoundaryLoop& candidate = loops[k];
-                    return candidate.hole() == tube.hole && std::abs(candidate.area) >= mOptions.minContourArea &&
-                           (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid));
-                });
-            if (best < 0) continue;
-            // Its own central point, from which the apex is highest on a rounded end; but where
-            // the band from the last contour to it would pair points more than 3 pixels apart on
-            // average (as bands may change shape, correspond), the point that follows the last
-            // contour's as along the tube (followCentres), if that pairs them closer: a C's own
-            // point can lie elsewhere in it (the twisting C's end band turned a quarter turn, 13.9
-            // pixels out of register and 6.2 voxels off the surface).
-            constexpr double kOutOfRegister = 3.0;
-            SliceLoop endLoop{std::move(loops[best]), {}, {}};
-            glm::dvec2 center = centralPoint(endLoop.loop);
-            endLoop.view = viewFrom(endLoop.loop, center);
-            endLoop.profile = radialProfile(endLoop.view, profileDirections());
-            const double own = endLoop.view.winding == 1
-                                   ? misregistration(member.view, member.profile, endLoop.view, endLoop.profile)
-                                   : std::numeric_limits<double>::infinity();
-            const glm::dvec2 followed = followedCentre(member, endLoop);
-            if (own > kOutOfRegister && followed != center) {
-                LoopView view = viewFrom(endLoop.loop, followed);
-                RadialProfile profile = view.winding == 1 ? radialProfile(view, profileDirections()) : RadialProfile{};
-                if (view.winding == 1 && misregistration(member.view, member.profile, view, profile) < own) {
-                    center = followed;
-                    endLoop.view = std::move(view);
-                    endLoop.profile = std::move(profile);
-                }
+            if ((top ? tube.top : tube.bottom).junction >= 0) continue;
+            // A bound on end contours per end, against a region that somehow never ends (each
+            // adds at most a slice spacing; a twisted flat end needs one, a long oblique one two).
+            constexpr int kMostEndContours = 8;
+            for (int added = 0; added < kMostEndContours && addEndContour(tube, top); ++added) {
             }
-            if (endLoop.view.winding != 1) continue;
-            mPositions.push_back(wEnd);
-            mLoops.push_back({});
-            mLoops.back().push_back(std::move(endLoop));
-            const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
-            if (top)
-                tube.members.push_back(added);
-            else
-                tube.members.insert(tube.members.begin(), added);
-            ++mStats.endContours;
-            double wAgain = wEnd;
-            end.hasApex = findApex(endPlane, center, direction, 2.0 * kEndInset + 1.0, wAgain, sign);
-            end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
         }
     }
     // One cap style for every level, so that levels nest: an apex fan where the end contour is
@@ -768,7 +821,7 @@ void Reconstruction::closeEnds()
             (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
             (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;
             ++mStats.annularCaps;
-            addRimContours(mTubes[best], mTubes[h], top, reach, kEndInset);
+            addRimContours(mTubes[best], mTubes[h], top, endReach(mOptions), kEndInset);
         }
     }
 }

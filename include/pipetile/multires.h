@@ -26,6 +26,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <optional>
 #include <vector>
 
 namespace pipetile {
@@ -264,6 +265,12 @@ private:
     /// The central point of `loop` that follows `before`'s along their tube (see followCentres).
     static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
     void closeEnds();
+    /// Adds one end contour past the tube's end on that side, if the object reaches on there;
+    /// false if it added none.
+    bool addEndContour(Tube& tube, bool top);
+    /// The contour on plane w that continues `member` past its tube's end, centred as a band to
+    /// it pairs best; none if no loop there overlaps it.
+    std::optional<SliceLoop> endContourAt(const SliceLoop& member, bool hole, double w);
     void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
     void chooseSlices();
