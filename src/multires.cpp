@@ -1137,15 +1137,16 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
     }
 }
 
-LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
-{
-    const RaySet rays{mOptions.baseRays, level};
-    LevelMesh result;
-    result.level = level;
-    result.rays = rays.count();
-    TriangleMesh& mesh = result.mesh;
-    const bool mirrored = mVolume.mirrored();
+// One level's mesh as assemble() puts it together. The constructor numbers every vertex (the
+// tubes' members in tube order, then each junction's nodes and parts' crossings) and places it;
+// build() tiles the bands, caps and junction parts, in that order. It refers to the
+// reconstruction and the level's contours, which must outlive it; build() is called once.
+class Reconstruction::Assembly {
+public:
+    Assembly(const Reconstruction& reconstruction, const Contours& contours, int level);
+    LevelMesh build();
 
+private:
     // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
     // apex follows the first (or last) contour of its tube. Contours, trees and bands are then
     // built in parallel and joined in this order, so the mesh does not depend on the threads.
@@ -1157,16 +1158,111 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         std::uint32_t first;   // index of its first vertex
         std::uint32_t apex[2]; // bottom, top cap apex (members that end a tube with a fan)
     };
+    // A vertex on a member's contour edge that its own crossings do not give (numberJunctionVertices).
+    struct Extra {
+        int segment;
+        double param;
+        std::uint32_t id;
+        glm::dvec2 point;
+    };
+    using Chord = std::pair<int, int>;
+    // A contour's ring: its crossings in walk order with its extras merged in by their place on
+    // the polygon; after[k] lists those between crossings k and k+1.
+    struct Ring {
+        std::vector<std::uint32_t> ids;
+        std::vector<glm::dvec2> points; // in-plane, pixel units
+        std::vector<std::vector<std::uint32_t>> after;
+    };
+    // The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
+    // in band-local ids: the lower contour's crossings, then the upper one's.
+    struct Side {
+        const Contour* contour;
+        const ContourString* string; // with the contour tree tiler
+        const ContourTree* tree;
+        std::uint32_t first;
+    };
+
+    void collectMembers();
+    void castParts();
+    void numberJunctionVertices();
+    void placeVertices();
+    std::size_t memberAt(const std::pair<int, int>& loop) const;
+    glm::dvec3 toWorld(const glm::dvec2& uv, int plane) const;
+    Ring ringOf(std::size_t i) const;
+    void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
+    void buildTrees();
+    std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes) const;
+    Side sideOf(std::size_t i) const;
+    static void place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip);
+    void tileBands();
+    ContourTree treeOf(std::size_t i) const;
+    void emitCap(std::size_t self, bool top);
+    void emitBandsAndCaps();
+    void tileJunction(std::size_t j);
+
+    // The reconstruction's state, under its own names.
+    const Volume& mVolume;
+    const SlicePlan& mPlan;
+    const MeshOptions& mOptions;
+    const std::vector<double>& mPositions;
+    const std::vector<std::vector<SliceLoop>>& mLoops;
+    const std::vector<Tube>& mTubes;
+    const std::vector<Junction>& mJunctions;
+
+    const Contours& contours;
+    const RaySet rays;
+    const bool mirrored;
+    LevelMesh result;
+    TriangleMesh& mesh = result.mesh;
     std::vector<Member> members;
-    std::vector<std::size_t> tubeFirst(mTubes.size());     // index in `members` of each tube's first
-    std::vector<std::vector<int>> memberOf(mLoops.size()); // per plane and loop; -1: not tiled
-    for (std::size_t s = 0; s < mLoops.size(); ++s) memberOf[s].assign(mLoops[s].size(), -1);
+    std::vector<std::size_t> tubeFirst;     // index in `members` of each tube's first
+    std::vector<std::vector<int>> memberOf; // per plane and loop; -1: not tiled
     std::uint32_t vertexCount = 0;
+    std::vector<std::vector<Contour>> parts;                                             // per junction, per partner
+    std::vector<std::vector<Extra>> extras;                                              // per member
+    std::vector<std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>> onChord; // per junction
+    std::vector<std::uint32_t> firstNodeOf;                                              // per junction
+    std::vector<std::vector<std::uint32_t>> partFirst;                                   // per junction, per partner
+    std::vector<std::unique_ptr<ContourTree>> trees; // per member, with the contour tree tiler
+    std::vector<ContourString> strings;              // per member, likewise
+    std::vector<std::size_t> bandBytes;              // per member
+    std::vector<std::vector<Triangle>> bands;        // per member: the band to the one before it
+};
+
+Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& contours, int level)
+    : mVolume(r.mVolume),
+      mPlan(r.mPlan),
+      mOptions(r.mOptions),
+      mPositions(r.mPositions),
+      mLoops(r.mLoops),
+      mTubes(r.mTubes),
+      mJunctions(r.mJunctions),
+      contours(contours),
+      rays{r.mOptions.baseRays, level},
+      mirrored(r.mVolume.mirrored()),
+      tubeFirst(r.mTubes.size()),
+      memberOf(r.mLoops.size()),
+      parts(r.mJunctions.size()),
+      onChord(r.mJunctions.size()),
+      firstNodeOf(r.mJunctions.size()),
+      partFirst(r.mJunctions.size())
+{
+    result.level = level;
+    result.rays = rays.count();
+    collectMembers();
+    castParts();
+    numberJunctionVertices();
+    placeVertices();
+}
+
+void Reconstruction::Assembly::collectMembers()
+{
+    for (std::size_t s = 0; s < mLoops.size(); ++s) memberOf[s].assign(mLoops[s].size(), -1);
     for (const Tube& tube : mTubes) {
         tubeFirst[&tube - mTubes.data()] = members.size();
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
-            if (mLoops[s][l].fromLevel > level) {
+            if (mLoops[s][l].fromLevel > result.level) {
                 ++result.skippedContours;
                 continue;
             }
@@ -1190,11 +1286,14 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             members.push_back(member);
         }
     }
-    // Junction vertices. Nodes, the same at every level (junction.nodePoints); then each part's
-    // crossings: the partner's rays cast against the part's polygon, so that the part is tiled to
-    // the partner like any band. A part that gives no contour (no crossings) is tiled by the
-    // minimum-area tiler instead.
-    std::vector<std::vector<Contour>> parts(mJunctions.size()); // per junction, per partner
+}
+
+// Junction vertices. Nodes, the same at every level (junction.nodePoints); then each part's
+// crossings: the partner's rays cast against the part's polygon, so that the part is tiled to
+// the partner like any band. A part that gives no contour (no crossings) is tiled by the
+// minimum-area tiler instead.
+void Reconstruction::Assembly::castParts()
+{
     forEachIndex(mOptions.threads, mJunctions.size(), [&](std::size_t j) {
         const Junction& junction = mJunctions[j];
         for (std::size_t k = 0; k < junction.parts.size(); ++k) {
@@ -1205,23 +1304,14 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             parts[j].push_back(std::move(c));
         }
     });
-    // Extras: the vertices on a member's contour edges that its own crossings do not give (cuts,
-    // and the parts' crossings on its arcs), by polygon segment and place along it (0 at its
-    // first point). Parts' crossings on chords: per junction, by the chord's nodes (lower first).
-    struct Extra {
-        int segment;
-        double param;
-        std::uint32_t id;
-        glm::dvec2 point;
-    };
-    std::vector<std::vector<Extra>> extras(members.size());
-    using Chord = std::pair<int, int>;
-    std::vector<std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>> onChord(mJunctions.size());
-    std::vector<std::uint32_t> firstNodeOf(mJunctions.size());
-    std::vector<std::vector<std::uint32_t>> partFirst(mJunctions.size());
-    auto memberAt = [&](const std::pair<int, int>& loop) {
-        return static_cast<std::size_t>(memberOf[loop.first][loop.second]);
-    };
+}
+
+// Extras: the vertices on a member's contour edges that its own crossings do not give (cuts,
+// and the parts' crossings on its arcs), by polygon segment and place along it (0 at its
+// first point). Parts' crossings on chords: per junction, by the chord's nodes (lower first).
+void Reconstruction::Assembly::numberJunctionVertices()
+{
+    extras.resize(members.size());
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
         const std::size_t n = junction.cuts.size();
@@ -1239,10 +1329,21 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             vertexCount += static_cast<std::uint32_t>(part.crossings.size());
         }
     }
+}
+
+std::size_t Reconstruction::Assembly::memberAt(const std::pair<int, int>& loop) const
+{
+    return static_cast<std::size_t>(memberOf[loop.first][loop.second]);
+}
+
+glm::dvec3 Reconstruction::Assembly::toWorld(const glm::dvec2& uv, int plane) const
+{
+    return mVolume.indexToWorld(planeToIndex(mPlan.axis, uv, mPositions[plane]));
+}
+
+void Reconstruction::Assembly::placeVertices()
+{
     mesh.vertices.resize(vertexCount);
-    auto toWorld = [&](const glm::dvec2& uv, int plane) {
-        return mVolume.indexToWorld(planeToIndex(mPlan.axis, uv, mPositions[plane]));
-    };
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
         for (std::size_t j = 0; j < m.contour->crossings.size(); ++j)
@@ -1283,78 +1384,75 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             }
         }
     }
+}
 
-    // A contour's ring: its crossings in walk order with its extras merged in by their place on
-    // the polygon; after[k] lists those between crossings k and k+1.
-    struct Ring {
-        std::vector<std::uint32_t> ids;
-        std::vector<glm::dvec2> points; // in-plane, pixel units
-        std::vector<std::vector<std::uint32_t>> after;
+// A contour's ring: its crossings in walk order with its extras merged in by their place on
+// the polygon; after[k] lists those between crossings k and k+1.
+Reconstruction::Assembly::Ring Reconstruction::Assembly::ringOf(std::size_t i) const
+{
+    const Member& m = members[i];
+    const Contour& contour = *m.contour;
+    const std::vector<Crossing>& x = contour.crossings;
+    const std::vector<glm::dvec2>& polygon = mLoops[m.slice][m.loop].view.polygon;
+    const long long segments = static_cast<long long>(polygon.size());
+    // Where a crossing lies along its segment: where its ray meets the polygon.
+    auto placeOf = [&](const Crossing& c) {
+        const glm::dvec2 onPolygon = contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
+        return placeOn(polygon[c.segment], polygon[(c.segment + 1) % segments], onPolygon);
     };
-    auto ringOf = [&](std::size_t i) {
-        const Member& m = members[i];
-        const Contour& contour = *m.contour;
-        const std::vector<Crossing>& x = contour.crossings;
-        const std::vector<glm::dvec2>& polygon = mLoops[m.slice][m.loop].view.polygon;
-        const long long segments = static_cast<long long>(polygon.size());
-        // Where a crossing lies along its segment: where its ray meets the polygon.
-        auto placeOf = [&](const Crossing& c) {
-            const glm::dvec2 onPolygon =
-                contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
-            return placeOn(polygon[c.segment], polygon[(c.segment + 1) % segments], onPolygon);
-        };
-        // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
-        // segment, or an extra before it on its segment, comes last.
-        auto key = [&](long long segment) { return (segment - x[0].segment + segments) % segments; };
-        std::vector<long long> crossingKey(x.size());
-        for (std::size_t k = 0; k < x.size(); ++k)
-            crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
-        const double startPlace = extras[i].empty() ? 0.0 : placeOf(x[0]);
-        std::vector<std::pair<std::pair<long long, double>, const Extra*>> placed;
-        for (const Extra& e : extras[i]) {
-            const long long k = key(e.segment);
-            placed.push_back({{k == 0 && e.param <= startPlace ? segments : k, e.param}, &e});
+    // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
+    // segment, or an extra before it on its segment, comes last.
+    auto key = [&](long long segment) { return (segment - x[0].segment + segments) % segments; };
+    std::vector<long long> crossingKey(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k)
+        crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
+    const double startPlace = extras[i].empty() ? 0.0 : placeOf(x[0]);
+    std::vector<std::pair<std::pair<long long, double>, const Extra*>> placed;
+    for (const Extra& e : extras[i]) {
+        const long long k = key(e.segment);
+        placed.push_back({{k == 0 && e.param <= startPlace ? segments : k, e.param}, &e});
+    }
+    std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first < b.first : a.second->id < b.second->id;
+    });
+    std::vector<std::vector<const Extra*>> after(x.size());
+    for (const auto& [at, e] : placed) {
+        std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
+        while (before < x.size() && crossingKey[before] == at.first && placeOf(x[before]) < at.second) ++before;
+        after[before - 1].push_back(e);
+    }
+    Ring ring;
+    ring.after.resize(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k) {
+        ring.ids.push_back(m.first + static_cast<std::uint32_t>(k));
+        ring.points.push_back(x[k].point);
+        for (const Extra* e : after[k]) {
+            ring.after[k].push_back(e->id);
+            ring.ids.push_back(e->id);
+            ring.points.push_back(e->point);
         }
-        std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) {
-            return a.first != b.first ? a.first < b.first : a.second->id < b.second->id;
-        });
-        std::vector<std::vector<const Extra*>> after(x.size());
-        for (const auto& [at, e] : placed) {
-            std::size_t before =
-                std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
-            while (before < x.size() && crossingKey[before] == at.first && placeOf(x[before]) < at.second) ++before;
-            after[before - 1].push_back(e);
-        }
-        Ring ring;
-        ring.after.resize(x.size());
-        for (std::size_t k = 0; k < x.size(); ++k) {
-            ring.ids.push_back(m.first + static_cast<std::uint32_t>(k));
-            ring.points.push_back(x[k].point);
-            for (const Extra* e : after[k]) {
-                ring.after[k].push_back(e->id);
-                ring.ids.push_back(e->id);
-                ring.points.push_back(e->point);
-            }
-        }
-        return ring;
-    };
-    // Extras lie on contour edges that the bands and caps tile as single edges: the triangle on
-    // each such edge becomes a fan through them.
-    auto splitForExtras = [&](std::vector<Triangle>& triangles, std::size_t i) {
-        if (extras[i].empty()) return;
-        const Ring ring = ringOf(i);
-        const std::uint32_t count = static_cast<std::uint32_t>(members[i].contour->crossings.size());
-        for (std::uint32_t k = 0; k < count; ++k)
-            if (!ring.after[k].empty())
-                splitEdge(triangles, members[i].first + k, members[i].first + (k + 1) % count, ring.after[k]);
-    };
+    }
+    return ring;
+}
 
-    // Contour trees, one per contour; where a sector is ambiguous, each band ranks its two
-    // contours against each other (rule [1'], below), so the trees may differ from band to band.
-    const Clock::time_point tiling = Clock::now();
-    std::vector<std::unique_ptr<ContourTree>> trees(members.size());
-    std::vector<ContourString> strings(members.size());
-    std::vector<std::size_t> bandBytes(members.size(), 0);
+// Extras lie on contour edges that the bands and caps tile as single edges: the triangle on
+// each such edge becomes a fan through them.
+void Reconstruction::Assembly::splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const
+{
+    if (extras[i].empty()) return;
+    const Ring ring = ringOf(i);
+    const std::uint32_t count = static_cast<std::uint32_t>(members[i].contour->crossings.size());
+    for (std::uint32_t k = 0; k < count; ++k)
+        if (!ring.after[k].empty())
+            splitEdge(triangles, members[i].first + k, members[i].first + (k + 1) % count, ring.after[k]);
+}
+
+// Contour trees, one per contour; where a sector is ambiguous, each band ranks its two
+// contours against each other (rule [1'], below), so the trees may differ from band to band.
+void Reconstruction::Assembly::buildTrees()
+{
+    trees.resize(members.size());
+    strings.resize(members.size());
     if (mOptions.tiler == TilerKind::ContourTree) {
         forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
             strings[i] = contourString(*members[i].contour);
@@ -1365,68 +1463,74 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             result.tilingBytes += tree->bytes();
         }
     }
-    // The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
-    // in band-local ids: the lower contour's crossings, then the upper one's.
-    struct Side {
-        const Contour* contour;
-        const ContourString* string; // with the contour tree tiler
-        const ContourTree* tree;
-        std::uint32_t first;
-    };
-    auto tileSides = [&](const Side& lowerSide, const Side& upperSide, std::size_t& bytes) {
-        if (mOptions.tiler == TilerKind::ContourTree) {
-            // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
-            // closest to the upper contour's, then the upper one the F edge closest to that
-            // choice. Ranking each contour once, against the contour below it only, carried a
-            // choice made for one band into the next, where the upper contour's sector can hold
-            // the other F edge (bean: the arm tip grows past a ray between two slices) and the
-            // traversal then paired the tip with the hole's wall.
-            const ContourTree* lower = lowerSide.tree;
-            const ContourTree* upper = upperSide.tree;
-            std::unique_ptr<ContourTree> rankedLower, rankedUpper;
-            if (lower->ambiguousSectors() > 0) {
-                rankedLower = std::make_unique<ContourTree>(
-                    *lowerSide.string,
-                    rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
-                lower = rankedLower.get();
-                bytes += lower->bytes();
-            }
-            if (upper->ambiguousSectors() > 0) {
-                rankedUpper = std::make_unique<ContourTree>(
-                    *upperSide.string,
-                    rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
-                upper = rankedUpper.get();
-                bytes += upper->bytes();
-            }
-            return tileBand(*lower, *upper);
+}
+
+// The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
+// in band-local ids: the lower contour's crossings, then the upper one's.
+std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide, const Side& upperSide,
+                                                          std::size_t& bytes) const
+{
+    if (mOptions.tiler == TilerKind::ContourTree) {
+        // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
+        // closest to the upper contour's, then the upper one the F edge closest to that
+        // choice. Ranking each contour once, against the contour below it only, carried a
+        // choice made for one band into the next, where the upper contour's sector can hold
+        // the other F edge (bean: the arm tip grows past a ray between two slices) and the
+        // traversal then paired the tip with the hole's wall.
+        const ContourTree* lower = lowerSide.tree;
+        const ContourTree* upper = upperSide.tree;
+        std::unique_ptr<ContourTree> rankedLower, rankedUpper;
+        if (lower->ambiguousSectors() > 0) {
+            rankedLower = std::make_unique<ContourTree>(
+                *lowerSide.string,
+                rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
+            lower = rankedLower.get();
+            bytes += lower->bytes();
         }
-        // The baselines see the same contours as world-space points.
-        const auto first = mesh.vertices.begin();
-        const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
-        const std::vector<glm::dvec3> a(first + lowerSide.first, first + lowerSide.first + lowerCount);
-        const std::vector<glm::dvec3> b(first + upperSide.first,
-                                        first + upperSide.first + upperSide.contour->crossings.size());
-        ToroidalStats stats;
-        std::vector<Triangle> band =
-            mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
-        bytes += stats.bytes;
-        // A strip that fans one point over the whole other contour is no manifold (the oblique
-        // tube's tiny sections with --tiler optimal, before this).
-        return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
-    };
-    auto sideOf = [&](std::size_t i) {
-        return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first};
-    };
-    // Band-local ids to the mesh's, turned outward.
-    auto place = [](std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip) {
-        const std::uint32_t lowerCount = static_cast<std::uint32_t>(lower.contour->crossings.size());
-        for (Triangle& t : band) {
-            for (std::uint32_t& v : t) v = v < lowerCount ? lower.first + v : upper.first + (v - lowerCount);
-            if (flip) std::swap(t[1], t[2]);
+        if (upper->ambiguousSectors() > 0) {
+            rankedUpper = std::make_unique<ContourTree>(
+                *upperSide.string,
+                rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
+            upper = rankedUpper.get();
+            bytes += upper->bytes();
         }
-    };
-    // Bands: each member but a tube's first joins the one before it.
-    std::vector<std::vector<Triangle>> bands(members.size());
+        return tileBand(*lower, *upper);
+    }
+    // The baselines see the same contours as world-space points.
+    const auto first = mesh.vertices.begin();
+    const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
+    const std::vector<glm::dvec3> a(first + lowerSide.first, first + lowerSide.first + lowerCount);
+    const std::vector<glm::dvec3> b(first + upperSide.first,
+                                    first + upperSide.first + upperSide.contour->crossings.size());
+    ToroidalStats stats;
+    std::vector<Triangle> band =
+        mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+    bytes += stats.bytes;
+    // A strip that fans one point over the whole other contour is no manifold (the oblique
+    // tube's tiny sections with --tiler optimal, before this).
+    return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
+}
+
+Reconstruction::Assembly::Side Reconstruction::Assembly::sideOf(std::size_t i) const
+{
+    return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first};
+}
+
+// Band-local ids to the mesh's, turned outward.
+void Reconstruction::Assembly::place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip)
+{
+    const std::uint32_t lowerCount = static_cast<std::uint32_t>(lower.contour->crossings.size());
+    for (Triangle& t : band) {
+        for (std::uint32_t& v : t) v = v < lowerCount ? lower.first + v : upper.first + (v - lowerCount);
+        if (flip) std::swap(t[1], t[2]);
+    }
+}
+
+// Bands: each member but a tube's first joins the one before it.
+void Reconstruction::Assembly::tileBands()
+{
+    bandBytes.assign(members.size(), 0);
+    bands.resize(members.size());
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         if (members[i].startsTube) return;
         bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i]);
@@ -1434,53 +1538,62 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         splitForExtras(bands[i], i - 1);
         splitForExtras(bands[i], i);
     });
-    result.tilingSeconds = secondsSince(tiling);
     for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
+}
 
-    // A star-shaped end contour fans around its apex; any other, or one without an apex, is
-    // closed flat by ear clipping, which follows C-shaped and folded sections.
-    // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
-    // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
-    // inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
-    // junction gets nothing either: the junction's triangles close it.
-    auto treeOf = [&](std::size_t i) { return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour)); };
-    auto emitCap = [&](std::size_t self, bool top) {
-        const Member& m = members[self];
-        const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
-        if (end.junction >= 0 || (m.tube->hole && end.annulus >= 0)) return;
-        if (end.annulus >= 0) {
-            const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
-            std::size_t hole = tubeFirst[end.annulus];
-            if (top)
-                while (!members[hole].endsTube) ++hole;
-            std::vector<Triangle> annulus = tileBand(treeOf(self), treeOf(hole));
-            for (Triangle& t : annulus) {
-                for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
-                if (top == mirrored) std::swap(t[1], t[2]);
-            }
-            splitForExtras(annulus, self);
-            splitForExtras(annulus, hole);
-            mesh.triangles.insert(mesh.triangles.end(), annulus.begin(), annulus.end());
-            return;
+ContourTree Reconstruction::Assembly::treeOf(std::size_t i) const
+{
+    return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour));
+}
+
+// A star-shaped end contour fans around its apex; any other, or one without an apex, is
+// closed flat by ear clipping, which follows C-shaped and folded sections.
+// An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
+// outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
+// inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
+// junction gets nothing either: the junction's triangles close it.
+void Reconstruction::Assembly::emitCap(std::size_t self, bool top)
+{
+    const Member& m = members[self];
+    const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
+    if (end.junction >= 0 || (m.tube->hole && end.annulus >= 0)) return;
+    if (end.annulus >= 0) {
+        const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
+        std::size_t hole = tubeFirst[end.annulus];
+        if (top)
+            while (!members[hole].endsTube) ++hole;
+        std::vector<Triangle> annulus = tileBand(treeOf(self), treeOf(hole));
+        for (Triangle& t : annulus) {
+            for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
+            if (top == mirrored) std::swap(t[1], t[2]);
         }
-        const Ring ring = ringOf(self);
-        const std::uint32_t count = static_cast<std::uint32_t>(ring.ids.size());
-        auto index = [&](std::uint32_t v) { return v < count ? ring.ids[v] : m.apex[top ? 1 : 0]; };
-        // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
-        bool flip = m.tube->hole != mirrored;
-        std::vector<Triangle> cap;
-        if (end.fan) {
-            cap = tileCap(count, top);
-        } else {
-            cap = earClip(ring.points);
-            flip = flip != !top;
-        }
-        for (Triangle t : cap) {
-            for (std::uint32_t& v : t) v = index(v);
-            if (flip) std::swap(t[1], t[2]);
-            mesh.triangles.push_back(t);
-        }
-    };
+        splitForExtras(annulus, self);
+        splitForExtras(annulus, hole);
+        mesh.triangles.insert(mesh.triangles.end(), annulus.begin(), annulus.end());
+        return;
+    }
+    const Ring ring = ringOf(self);
+    const std::uint32_t count = static_cast<std::uint32_t>(ring.ids.size());
+    auto index = [&](std::uint32_t v) { return v < count ? ring.ids[v] : m.apex[top ? 1 : 0]; };
+    // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
+    bool flip = m.tube->hole != mirrored;
+    std::vector<Triangle> cap;
+    if (end.fan) {
+        cap = tileCap(count, top);
+    } else {
+        cap = earClip(ring.points);
+        flip = flip != !top;
+    }
+    for (Triangle t : cap) {
+        for (std::uint32_t& v : t) v = index(v);
+        if (flip) std::swap(t[1], t[2]);
+        mesh.triangles.push_back(t);
+    }
+}
+
+// Each tube in order: its bottom cap, its bands, its top cap.
+void Reconstruction::Assembly::emitBandsAndCaps()
+{
     std::size_t triangleCount = 0;
     for (const std::vector<Triangle>& band : bands) triangleCount += band.size();
     mesh.triangles.reserve(triangleCount + 2 * (vertexCount - static_cast<std::size_t>(result.crossings)) +
@@ -1490,125 +1603,139 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
         mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
         if (members[i].endsTube) emitCap(i, true);
     }
-    // Junctions: each part is tiled to its partner. Where its polygon gave a contour, by the
-    // band, then the part's edges are split by the vertices on them (the single contour's own
-    // crossings and extras along an arc, the other parts' crossings along a shared chord, the
-    // nodes); else from all those vertices by the minimum-area tiler. Parts share each chord once
-    // in either direction, so the pieces join into one manifold with c - 2 saddles for c contours.
-    for (std::size_t j = 0; j < mJunctions.size(); ++j) {
-        const Junction& junction = mJunctions[j];
-        const Ring ring = ringOf(memberAt(junction.single));
-        const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberAt(junction.inner)) : Ring{};
-        const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
-        const std::uint32_t firstNode = firstNodeOf[j];
-        std::map<Chord, std::vector<std::pair<double, std::uint32_t>>> chords = onChord[j];
-        for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
-        for (std::size_t k = 0; k < junction.many.size(); ++k) {
-            // The part's boundary: every vertex on it, in its order. Along an arc, the ring's
-            // entries from one cut to the next (as the bands split their edges); along a chord,
-            // the parts' crossings on it.
-            const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
-            std::vector<std::uint32_t> boundary;
-            for (std::size_t c = 0; c < corners.size();) {
-                const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
-                if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
-                const Ring& r = a.member == 1 ? innerRing : ring;
-                const std::size_t size = r.ids.size();
-                const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
-                                                          [(a.member == 1 ? junction.inner : junction.single).second]
-                                                              .view.polygon.size());
-                const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
-                if (a.member >= 0 && a.member == b.member && (forward || backward)) {
-                    std::size_t end = c + 1;
-                    while (corners[end % corners.size()].node < 0) ++end;
-                    const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
-                    std::size_t p = static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) -
-                                                             r.ids.begin());
-                    for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to;
-                         p = (p + (forward ? 1 : size - 1)) % size)
-                        boundary.push_back(r.ids[p]);
-                    c = end;
-                    continue;
-                }
-                const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
-                if (along != chords.end()) {
-                    if (a.node < b.node)
-                        for (const auto& [t, id] : along->second) boundary.push_back(id);
-                    else
-                        for (auto e = along->second.rbegin(); e != along->second.rend(); ++e)
-                            boundary.push_back(e->second);
-                }
-                ++c;
+}
+
+// Junctions: each part is tiled to its partner. Where its polygon gave a contour, by the
+// band, then the part's edges are split by the vertices on them (the single contour's own
+// crossings and extras along an arc, the other parts' crossings along a shared chord, the
+// nodes); else from all those vertices by the minimum-area tiler. Parts share each chord once
+// in either direction, so the pieces join into one manifold with c - 2 saddles for c contours.
+void Reconstruction::Assembly::tileJunction(std::size_t j)
+{
+    const Junction& junction = mJunctions[j];
+    const Ring ring = ringOf(memberAt(junction.single));
+    const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberAt(junction.inner)) : Ring{};
+    const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
+    const std::uint32_t firstNode = firstNodeOf[j];
+    std::map<Chord, std::vector<std::pair<double, std::uint32_t>>> chords = onChord[j];
+    for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
+    for (std::size_t k = 0; k < junction.many.size(); ++k) {
+        // The part's boundary: every vertex on it, in its order. Along an arc, the ring's
+        // entries from one cut to the next (as the bands split their edges); along a chord,
+        // the parts' crossings on it.
+        const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
+        std::vector<std::uint32_t> boundary;
+        for (std::size_t c = 0; c < corners.size();) {
+            const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
+            if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
+            const Ring& r = a.member == 1 ? innerRing : ring;
+            const std::size_t size = r.ids.size();
+            const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
+                                                      [(a.member == 1 ? junction.inner : junction.single).second]
+                                                          .view.polygon.size());
+            const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
+            if (a.member >= 0 && a.member == b.member && (forward || backward)) {
+                std::size_t end = c + 1;
+                while (corners[end % corners.size()].node < 0) ++end;
+                const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
+                std::size_t p =
+                    static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) - r.ids.begin());
+                for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to;
+                     p = (p + (forward ? 1 : size - 1)) % size)
+                    boundary.push_back(r.ids[p]);
+                c = end;
+                continue;
             }
-            const std::size_t partner = memberAt(junction.many[k]);
-            const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
-            // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
-            const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
-            // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
-            // are not all there in their order (a crossing at a cut, placed on the next arc).
-            std::vector<std::size_t> at;
-            if (!parts[j][k].crossings.empty()) {
-                const std::uint32_t first = partFirst[j][k],
-                                    count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
-                for (std::size_t e = 0; e < boundary.size(); ++e)
-                    if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
-                const auto start =
-                    std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
-                if (start != at.end()) std::rotate(at.begin(), start, at.end());
-                for (std::uint32_t c = 0; c < at.size(); ++c)
-                    if (at.size() != count || boundary[at[c]] != first + c) at.clear();
+            const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
+            if (along != chords.end()) {
+                if (a.node < b.node)
+                    for (const auto& [t, id] : along->second) boundary.push_back(id);
+                else
+                    for (auto e = along->second.rbegin(); e != along->second.rend(); ++e) boundary.push_back(e->second);
             }
-            std::vector<Triangle> triangles;
-            if (!at.empty()) {
-                const Contour& part = parts[j][k];
-                ContourString string;
-                std::unique_ptr<ContourTree> tree;
-                if (mOptions.tiler == TilerKind::ContourTree) {
-                    string = contourString(part);
-                    tree = std::make_unique<ContourTree>(string);
-                }
-                const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
-                const Side& lower = fork || rim ? partSide : partnerSide;
-                const Side& upper = fork || rim ? partnerSide : partSide;
-                std::size_t bytes = 0;
-                triangles = tileSides(lower, upper, bytes);
-                result.tilingBytes += bytes;
-                place(triangles, lower, upper, flip);
-                // The part's edges, split by the vertices the boundary has between its crossings.
-                for (std::size_t c = 0; c < at.size(); ++c) {
-                    const std::size_t next = at[(c + 1) % at.size()];
-                    std::vector<std::uint32_t> between;
-                    for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
-                        between.push_back(boundary[e]);
-                    if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
-                }
-                splitForExtras(triangles, partner);
-            } else {
-                ++result.areaJunctionParts;
-                const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
-                const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
-                const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
-                std::vector<glm::dvec3> lowerPoints, upperPoints;
-                for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
-                for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-                triangles =
-                    withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
-                                    static_cast<std::uint32_t>(upper.size()));
-                for (Triangle& t : triangles) {
-                    for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
-                    if (flip) std::swap(t[1], t[2]);
-                }
-            }
-            mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
+            ++c;
         }
+        const std::size_t partner = memberAt(junction.many[k]);
+        const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
+        // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
+        const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
+        // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
+        // are not all there in their order (a crossing at a cut, placed on the next arc).
+        std::vector<std::size_t> at;
+        if (!parts[j][k].crossings.empty()) {
+            const std::uint32_t first = partFirst[j][k],
+                                count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
+            for (std::size_t e = 0; e < boundary.size(); ++e)
+                if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
+            const auto start = std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
+            if (start != at.end()) std::rotate(at.begin(), start, at.end());
+            for (std::uint32_t c = 0; c < at.size(); ++c)
+                if (at.size() != count || boundary[at[c]] != first + c) at.clear();
+        }
+        std::vector<Triangle> triangles;
+        if (!at.empty()) {
+            const Contour& part = parts[j][k];
+            ContourString string;
+            std::unique_ptr<ContourTree> tree;
+            if (mOptions.tiler == TilerKind::ContourTree) {
+                string = contourString(part);
+                tree = std::make_unique<ContourTree>(string);
+            }
+            const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
+            const Side& lower = fork || rim ? partSide : partnerSide;
+            const Side& upper = fork || rim ? partnerSide : partSide;
+            std::size_t bytes = 0;
+            triangles = tileSides(lower, upper, bytes);
+            result.tilingBytes += bytes;
+            place(triangles, lower, upper, flip);
+            // The part's edges, split by the vertices the boundary has between its crossings.
+            for (std::size_t c = 0; c < at.size(); ++c) {
+                const std::size_t next = at[(c + 1) % at.size()];
+                std::vector<std::uint32_t> between;
+                for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
+                    between.push_back(boundary[e]);
+                if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
+            }
+            splitForExtras(triangles, partner);
+        } else {
+            ++result.areaJunctionParts;
+            const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
+            const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
+            const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
+            std::vector<glm::dvec3> lowerPoints, upperPoints;
+            for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
+            for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
+            triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+                                        static_cast<std::uint32_t>(upper.size()));
+            for (Triangle& t : triangles) {
+                for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
+                if (flip) std::swap(t[1], t[2]);
+            }
+        }
+        mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
     }
+}
+
+LevelMesh Reconstruction::Assembly::build()
+{
+    const Clock::time_point tiling = Clock::now();
+    buildTrees();
+    tileBands();
+    result.tilingSeconds = secondsSince(tiling);
+    emitBandsAndCaps();
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) tileJunction(j);
     // A junction part's crossing can fall on a vertex of the single contour (collapseShortEdges);
     // a millionth of a voxel is far below any edge the rays make (the aorta's shortest is 5e-5
     // voxel) and far above rounding.
     collapseShortEdges(mesh, 1e-6 * mVolume.smallestVoxel());
     // The baselines stay as their papers give them (the optimal tiler's is the least area).
     if (mOptions.tiler == TilerKind::ContourTree) result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
-    return result;
+    return std::move(result);
+}
+
+LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
+{
+    return Assembly(*this, contours, level).build();
 }
 
 Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&reconstruction)

@@ -180,7 +180,9 @@ private:
     /// also halves sectors whose edges cut corners (contour.h, strayingChords); no level is built
     /// from it, so nesting holds.
     void addFoldRays(Contours& contours, int level) const;
+    /// The level's mesh from its contours: bands, caps and junctions (Assembly, multires.cpp).
     LevelMesh assemble(const Contours& contours, int level) const;
+    class Assembly;
 
     static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)
     struct SliceLoop {
