@@ -1166,6 +1166,8 @@ private:
         glm::dvec2 point;
     };
     using Chord = std::pair<int, int>;
+    // Parts' crossings on each chord, with their place along it (0 at its lower node).
+    using ChordVertices = std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>;
     // A contour's ring: its crossings in walk order with its extras merged in by their place on
     // the polygon; after[k] lists those between crossings k and k+1.
     struct Ring {
@@ -1199,6 +1201,9 @@ private:
     void emitCap(std::size_t self, bool top);
     void emitBandsAndCaps();
     void tileJunction(std::size_t j);
+    std::vector<std::uint32_t> partBoundary(std::size_t j, std::size_t k, const Ring& ring, const Ring& innerRing,
+                                            const ChordVertices& chords) const;
+    void tilePart(std::size_t j, std::size_t k, const std::vector<std::uint32_t>& boundary);
 
     // The reconstruction's state, under its own names.
     const Volume& mVolume;
@@ -1218,15 +1223,15 @@ private:
     std::vector<std::size_t> tubeFirst;     // index in `members` of each tube's first
     std::vector<std::vector<int>> memberOf; // per plane and loop; -1: not tiled
     std::uint32_t vertexCount = 0;
-    std::vector<std::vector<Contour>> parts;                                             // per junction, per partner
-    std::vector<std::vector<Extra>> extras;                                              // per member
-    std::vector<std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>> onChord; // per junction
-    std::vector<std::uint32_t> firstNodeOf;                                              // per junction
-    std::vector<std::vector<std::uint32_t>> partFirst;                                   // per junction, per partner
-    std::vector<std::unique_ptr<ContourTree>> trees; // per member, with the contour tree tiler
-    std::vector<ContourString> strings;              // per member, likewise
-    std::vector<std::size_t> bandBytes;              // per member
-    std::vector<std::vector<Triangle>> bands;        // per member: the band to the one before it
+    std::vector<std::vector<Contour>> parts;           // per junction, per partner
+    std::vector<std::vector<Extra>> extras;            // per member
+    std::vector<ChordVertices> onChord;                // per junction
+    std::vector<std::uint32_t> firstNodeOf;            // per junction
+    std::vector<std::vector<std::uint32_t>> partFirst; // per junction, per partner
+    std::vector<std::unique_ptr<ContourTree>> trees;   // per member, with the contour tree tiler
+    std::vector<ContourString> strings;                // per member, likewise
+    std::vector<std::size_t> bandBytes;                // per member
+    std::vector<std::vector<Triangle>> bands;          // per member: the band to the one before it
 };
 
 Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& contours, int level)
@@ -1615,105 +1620,115 @@ void Reconstruction::Assembly::tileJunction(std::size_t j)
     const Junction& junction = mJunctions[j];
     const Ring ring = ringOf(memberAt(junction.single));
     const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberAt(junction.inner)) : Ring{};
-    const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
-    const std::uint32_t firstNode = firstNodeOf[j];
-    std::map<Chord, std::vector<std::pair<double, std::uint32_t>>> chords = onChord[j];
+    ChordVertices chords = onChord[j];
     for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
-    for (std::size_t k = 0; k < junction.many.size(); ++k) {
-        // The part's boundary: every vertex on it, in its order. Along an arc, the ring's
-        // entries from one cut to the next (as the bands split their edges); along a chord,
-        // the parts' crossings on it.
-        const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
-        std::vector<std::uint32_t> boundary;
-        for (std::size_t c = 0; c < corners.size();) {
-            const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
-            if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
-            const Ring& r = a.member == 1 ? innerRing : ring;
-            const std::size_t size = r.ids.size();
-            const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
-                                                      [(a.member == 1 ? junction.inner : junction.single).second]
-                                                          .view.polygon.size());
-            const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
-            if (a.member >= 0 && a.member == b.member && (forward || backward)) {
-                std::size_t end = c + 1;
-                while (corners[end % corners.size()].node < 0) ++end;
-                const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
-                std::size_t p =
-                    static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) - r.ids.begin());
-                for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to;
-                     p = (p + (forward ? 1 : size - 1)) % size)
-                    boundary.push_back(r.ids[p]);
-                c = end;
-                continue;
-            }
-            const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
-            if (along != chords.end()) {
-                if (a.node < b.node)
-                    for (const auto& [t, id] : along->second) boundary.push_back(id);
-                else
-                    for (auto e = along->second.rbegin(); e != along->second.rend(); ++e) boundary.push_back(e->second);
-            }
-            ++c;
+    for (std::size_t k = 0; k < junction.many.size(); ++k) tilePart(j, k, partBoundary(j, k, ring, innerRing, chords));
+}
+
+// Part k's boundary: every vertex on it, in its order. Along an arc, the ring's entries from one
+// cut to the next (as the bands split their edges); along a chord, the parts' crossings on it.
+std::vector<std::uint32_t> Reconstruction::Assembly::partBoundary(std::size_t j, std::size_t k, const Ring& ring,
+                                                                  const Ring& innerRing,
+                                                                  const ChordVertices& chords) const
+{
+    const Junction& junction = mJunctions[j];
+    const std::uint32_t firstNode = firstNodeOf[j];
+    const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
+    std::vector<std::uint32_t> boundary;
+    for (std::size_t c = 0; c < corners.size();) {
+        const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
+        if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
+        const Ring& r = a.member == 1 ? innerRing : ring;
+        const std::size_t size = r.ids.size();
+        const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
+                                                  [(a.member == 1 ? junction.inner : junction.single).second]
+                                                      .view.polygon.size());
+        const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
+        if (a.member >= 0 && a.member == b.member && (forward || backward)) {
+            std::size_t end = c + 1;
+            while (corners[end % corners.size()].node < 0) ++end;
+            const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
+            std::size_t p =
+                static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) - r.ids.begin());
+            for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to; p = (p + (forward ? 1 : size - 1)) % size)
+                boundary.push_back(r.ids[p]);
+            c = end;
+            continue;
         }
-        const std::size_t partner = memberAt(junction.many[k]);
-        const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
-        // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
-        const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
-        // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
-        // are not all there in their order (a crossing at a cut, placed on the next arc).
-        std::vector<std::size_t> at;
-        if (!parts[j][k].crossings.empty()) {
-            const std::uint32_t first = partFirst[j][k],
-                                count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
-            for (std::size_t e = 0; e < boundary.size(); ++e)
-                if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
-            const auto start = std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
-            if (start != at.end()) std::rotate(at.begin(), start, at.end());
-            for (std::uint32_t c = 0; c < at.size(); ++c)
-                if (at.size() != count || boundary[at[c]] != first + c) at.clear();
+        const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
+        if (along != chords.end()) {
+            if (a.node < b.node)
+                for (const auto& [t, id] : along->second) boundary.push_back(id);
+            else
+                for (auto e = along->second.rbegin(); e != along->second.rend(); ++e) boundary.push_back(e->second);
         }
-        std::vector<Triangle> triangles;
-        if (!at.empty()) {
-            const Contour& part = parts[j][k];
-            ContourString string;
-            std::unique_ptr<ContourTree> tree;
-            if (mOptions.tiler == TilerKind::ContourTree) {
-                string = contourString(part);
-                tree = std::make_unique<ContourTree>(string);
-            }
-            const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
-            const Side& lower = fork || rim ? partSide : partnerSide;
-            const Side& upper = fork || rim ? partnerSide : partSide;
-            std::size_t bytes = 0;
-            triangles = tileSides(lower, upper, bytes);
-            result.tilingBytes += bytes;
-            place(triangles, lower, upper, flip);
-            // The part's edges, split by the vertices the boundary has between its crossings.
-            for (std::size_t c = 0; c < at.size(); ++c) {
-                const std::size_t next = at[(c + 1) % at.size()];
-                std::vector<std::uint32_t> between;
-                for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
-                    between.push_back(boundary[e]);
-                if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
-            }
-            splitForExtras(triangles, partner);
-        } else {
-            ++result.areaJunctionParts;
-            const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
-            const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
-            const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
-            std::vector<glm::dvec3> lowerPoints, upperPoints;
-            for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
-            for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-            triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
-                                        static_cast<std::uint32_t>(upper.size()));
-            for (Triangle& t : triangles) {
-                for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
-                if (flip) std::swap(t[1], t[2]);
-            }
-        }
-        mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
+        ++c;
     }
+    return boundary;
+}
+
+// Tiles part k of junction j, whose boundary holds the vertices listed.
+void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std::vector<std::uint32_t>& boundary)
+{
+    const Junction& junction = mJunctions[j];
+    const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
+    const std::size_t partner = memberAt(junction.many[k]);
+    const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
+    // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
+    const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
+    // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
+    // are not all there in their order (a crossing at a cut, placed on the next arc).
+    std::vector<std::size_t> at;
+    if (!parts[j][k].crossings.empty()) {
+        const std::uint32_t first = partFirst[j][k], count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
+        for (std::size_t e = 0; e < boundary.size(); ++e)
+            if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
+        const auto start = std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
+        if (start != at.end()) std::rotate(at.begin(), start, at.end());
+        for (std::uint32_t c = 0; c < at.size(); ++c)
+            if (at.size() != count || boundary[at[c]] != first + c) at.clear();
+    }
+    std::vector<Triangle> triangles;
+    if (!at.empty()) {
+        const Contour& part = parts[j][k];
+        ContourString string;
+        std::unique_ptr<ContourTree> tree;
+        if (mOptions.tiler == TilerKind::ContourTree) {
+            string = contourString(part);
+            tree = std::make_unique<ContourTree>(string);
+        }
+        const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
+        const Side& lower = fork || rim ? partSide : partnerSide;
+        const Side& upper = fork || rim ? partnerSide : partSide;
+        std::size_t bytes = 0;
+        triangles = tileSides(lower, upper, bytes);
+        result.tilingBytes += bytes;
+        place(triangles, lower, upper, flip);
+        // The part's edges, split by the vertices the boundary has between its crossings.
+        for (std::size_t c = 0; c < at.size(); ++c) {
+            const std::size_t next = at[(c + 1) % at.size()];
+            std::vector<std::uint32_t> between;
+            for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
+                between.push_back(boundary[e]);
+            if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
+        }
+        splitForExtras(triangles, partner);
+    } else {
+        ++result.areaJunctionParts;
+        const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
+        const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
+        const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
+        std::vector<glm::dvec3> lowerPoints, upperPoints;
+        for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
+        for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
+        triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+                                    static_cast<std::uint32_t>(upper.size()));
+        for (Triangle& t : triangles) {
+            for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
+            if (flip) std::swap(t[1], t[2]);
+        }
+    }
+    mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
 }
 
 LevelMesh Reconstruction::Assembly::build()
