@@ -105,6 +105,10 @@ constexpr double kEndInset = 0.25;
 // bands' own bound on shape change (correspond).
 constexpr double kOutOfRegister = 3.0;
 
+// A bound on end contours per end, against a region that somehow never ends (each adds at most a
+// slice spacing; a twisted flat end needs one, a long oblique one two).
+constexpr int kMostEndContours = 8;
+
 // How far past a tube's last contour its end is sought: a slice spacing and two voxels.
 double endReach(const MeshOptions& options)
 {
@@ -698,7 +702,7 @@ std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(const Slic
     return endLoop;
 }
 
-bool Reconstruction::addEndContour(Tube& tube, bool top)
+bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
 {
     // A tube end that no junction joins. Where the axis through the end contour's central point
     // leaves the object, an end contour a quarter voxel inside that point is added, so caps sit
@@ -719,7 +723,14 @@ bool Reconstruction::addEndContour(Tube& tube, bool top)
     const double sign = tube.hole ? -1.0 : 1.0;
     end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
     end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
-    if (!end.hasApex) return false;
+    // Without one (the axis starts at a pinch, or in a hole), a hole's end looks further at once:
+    // if its outside ends (a cavity's lid) it is no pipe's opening; a wall's end only if no rim
+    // joins it (probeAnyway), as a pipe's wall around its opening reaches past the plane too.
+    if (!end.hasApex &&
+        !((tube.hole || probeAnyway) && farthestReach(plane, member.loop, direction, reach, wApex, sign)))
+        return false;
+    end.hasApex = true;
+    end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
     // A cap leaves out what the region reaches past its apex. On a rounded end that is little
     // (the bean's tilted domes: 0.12 voxel); half a voxel or more is an end the axis left early
     // (the C twisting 15 degrees per voxel: its top apex 0.33 voxel past the last slice, its flat
@@ -764,10 +775,19 @@ void Reconstruction::closeEnds()
     for (Tube& tube : mTubes) {
         for (const bool top : {false, true}) {
             if ((top ? tube.top : tube.bottom).junction >= 0) continue;
-            // A bound on end contours per end, against a region that somehow never ends (each
-            // adds at most a slice spacing; a twisted flat end needs one, a long oblique one two).
-            constexpr int kMostEndContours = 8;
-            for (int added = 0; added < kMostEndContours && addEndContour(tube, top); ++added) {
+            for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
+            }
+        }
+    }
+    // A wall's end that the axis through its central point does not meet and no rim joins (a
+    // block around cavities, whose centre lies in them) is sought from points all over it.
+    for (Tube& tube : mTubes) {
+        for (const bool top : {false, true}) {
+            const TubeEnd& end = top ? tube.top : tube.bottom;
+            const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
+            if (tube.hole || end.hasApex || end.junction >= 0 || std::any_of(mTubes.begin(), mTubes.end(), rim))
+                continue;
+            for (int added = 0; added < kMostEndContours && addEndContour(tube, top, true); ++added) {
             }
         }
     }
@@ -796,6 +816,22 @@ void Reconstruction::closeEnds()
         throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
                         "': every cross-section lies in a single slice and cannot be closed; lower the spacing",
                     {Setting::Spacing});
+    joinRims();
+}
+
+bool Reconstruction::formRim(const Tube& outer, const Tube& hole, bool top) const
+{
+    const TubeEnd &outerEnd = top ? outer.top : outer.bottom, &holeEnd = top ? hole.top : hole.bottom;
+    const auto [os, ol] = top ? outer.members.back() : outer.members.front();
+    const auto [hs, hl] = top ? hole.members.back() : hole.members.front();
+    // A hole whose outside ends just past it (a cavity's lid) is no pipe's opening.
+    return !outer.hole && hole.hole && !outerEnd.hasApex && !holeEnd.hasApex && outerEnd.annulus < 0 &&
+           outerEnd.junction < 0 && holeEnd.junction < 0 && os == hs &&
+           encloses(mLoops[os][ol].loop, mLoops[hs][hl].view.center);
+}
+
+void Reconstruction::joinRims()
+{
     // Hollow pipes: where a hole tube ends in the same plane as the outer tube around it, the two
     // end contours are joined by an annulus, the pipe's rim, instead of closing each wall by a
     // cap of its own (two caps over the hollow, far from any surface). Nearest hole first.
@@ -812,13 +848,7 @@ void Reconstruction::closeEnds()
             };
             const int best = nearest(
                 static_cast<int>(mTubes.size()), holeCenter, [&](int o) { return endLoop(o).view.center; },
-                [&](int o) {
-                    const Tube& outer = mTubes[o];
-                    const TubeEnd& end = top ? outer.top : outer.bottom;
-                    const int os = (top ? outer.members.back() : outer.members.front()).first;
-                    return !outer.hole && !end.hasApex && end.annulus < 0 && end.junction < 0 && os == hs &&
-                           encloses(endLoop(o).loop, holeCenter);
-                });
+                [&](int o) { return formRim(mTubes[o], mTubes[h], top); });
             if (best < 0) continue;
             (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
             (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;

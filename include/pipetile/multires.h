@@ -217,7 +217,11 @@ private:
     void closeEnds();
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
     /// false if it added none.
-    bool addEndContour(Tube& tube, bool top);
+    bool addEndContour(Tube& tube, bool top, bool probeAnyway);
+    /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus.
+    void joinRims();
+    /// Whether the wall `outer` and `hole` end in one plane on that side as a pipe's open rim.
+    bool formRim(const Tube& outer, const Tube& hole, bool top) const;
     /// The contour on plane w that continues `member` past its tube's end, centred as a band to
     /// it pairs best; none if no loop there overlaps it.
     std::optional<SliceLoop> endContourAt(const SliceLoop& member, bool hole, double w);
