@@ -978,10 +978,12 @@ LevelMesh Reconstruction::buildLevel(int level) const
 {
     if (level < 0 || level >= mOptions.levels)
         throw UsageError("level " + std::to_string(level) + " is outside 0.." + std::to_string(mOptions.levels - 1));
+    // The level below decides which vertices must stay (collapseNeedleEdges); it is not timed.
+    const std::vector<glm::dvec3> coarser = level > 0 ? buildLevel(level - 1).mesh.vertices : std::vector<glm::dvec3>{};
     const Clock::time_point start = Clock::now();
     const Contours contours = castLevel(level);
     const double casting = secondsSince(start);
-    LevelMesh result = assemble(contours, level);
+    LevelMesh result = assemble(contours, level, coarser);
     result.castingSeconds = casting;
     result.seconds = secondsSince(start);
     return result;
@@ -1084,7 +1086,7 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
     }
 }
 
-LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
+LevelMesh Reconstruction::assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const
 {
     const RaySet rays{mOptions.baseRays, level};
     LevelMesh result;
@@ -1549,10 +1551,10 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
             mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
         }
     }
-    // A junction part's crossing can fall on a vertex of the single contour (collapseShortEdges);
-    // a millionth of a voxel is far below any edge the rays make (the aorta's shortest is 5e-5
-    // voxel) and far above rounding.
-    collapseShortEdges(mesh, 1e-6 * mVolume.smallestVoxel());
+    // Vertices a hair apart make needles (collapseNeedleEdges), or triangles of no area where a
+    // junction part's crossing falls on a vertex of the single contour: all but the coarser
+    // level's go.
+    collapseNeedleEdges(mesh, kNeedleEdgeVoxels * mVolume.smallestVoxel(), coarser);
     // The baselines stay as their papers give them (the optimal tiler's is the least area).
     if (mOptions.tiler == TilerKind::ContourTree) result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     return result;
@@ -1563,7 +1565,7 @@ Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&
     const Clock::time_point start = Clock::now();
     mContours = reconstruction.castLevel(0);
     const double casting = secondsSince(start);
-    mMesh = reconstruction.assemble(mContours, 0);
+    mMesh = reconstruction.assemble(mContours, 0, {});
     mMesh.castingSeconds = casting;
     mMesh.seconds = secondsSince(start);
 }
@@ -1577,7 +1579,7 @@ const LevelMesh& Refinement::refine()
     mContours = mReconstruction->refineContours(mContours, mLevel + 1);
     const double casting = secondsSince(start);
     ++mLevel;
-    mMesh = mReconstruction->assemble(mContours, mLevel);
+    mMesh = mReconstruction->assemble(mContours, mLevel, mMesh.mesh.vertices);
     mMesh.castingSeconds = casting;
     mMesh.seconds = secondsSince(start);
     return mMesh;

@@ -179,7 +179,8 @@ private:
     /// also halves sectors whose edges cut corners (contour.h, strayingChords); no level is built
     /// from it, so nesting holds.
     void addFoldRays(Contours& contours, int level) const;
-    LevelMesh assemble(const Contours& contours, int level) const;
+    /// The level's mesh; the vertices of `coarser` (the level below's, empty for level 0) stay.
+    LevelMesh assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const;
 
     static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)
     struct SliceLoop {

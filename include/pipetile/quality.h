@@ -43,6 +43,28 @@ long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 /// @return the number of edges collapsed.
 long long collapseShortEdges(TriangleMesh& mesh, double tolerance);
 
+/// Removes the vertices that make needles: each end of an edge no longer than `tolerance` (world
+/// units) goes into the other end, unless it is a vertex of the coarser level (`coarser`, its
+/// positions: empty for level 0), so that each level's vertices stay a subset of the next's
+/// whatever this level removes (a vertex this level keeps is one the next keeps too). Between two
+/// new ends the one that comes later by position (x, then y, then z) goes. Each collapse is made
+/// where it keeps a closed manifold so (collapseShortEdges' link condition), so a section thinner
+/// than the tolerance keeps the vertices that would pinch it. Such edges lie in slice planes: the
+/// partner's ray of a junction part meets the single contour's polygon next to where that
+/// contour's own ray does, or two rays meet a contour thinner than a voxel. Every triangle on one
+/// is a needle whatever the diagonals (its aspect ratio is about the edge's distance to the third
+/// corner over its length), so no flip removes it. The surface moves by at most the edges' length;
+/// positions are not moved; deterministic, and the same for a level refined or built from scratch.
+/// @return the number of edges collapsed.
+long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser);
+
+/// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
+/// edges lie far below (tree, aorta: under 0.01 voxel; the hollow Y's up to 0.3), the rays' own
+/// spacing on a tube of a few voxels far above, and the top level's distance to the isosurface
+/// (under 0.75 voxel, multires.cpp) has room for it. Twice this folded the surface (aspect 1e9
+/// on the aorta's top level).
+constexpr double kNeedleEdgeVoxels = 0.1;
+
 /// Triangles with an angle below this many degrees are counted as needles in reports.
 constexpr double kNeedleDegrees = 5.0;
 
