@@ -1553,10 +1553,21 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
     }
     // Vertices a hair apart make needles (collapseNeedleEdges), or triangles of no area where a
     // junction part's crossing falls on a vertex of the single contour: all but the coarser
-    // level's go.
-    collapseNeedleEdges(mesh, kNeedleEdgeVoxels * mVolume.smallestVoxel(), coarser);
-    // The baselines stay as their papers give them (the optimal tiler's is the least area).
-    if (mOptions.tiler == TilerKind::ContourTree) result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+    // level's go. The baselines stay as their papers give them (the optimal tiler's is the least
+    // area): only copies of one point go, a millionth of a voxel apart (the aorta's shortest edge
+    // is 5e-5 voxel).
+    const bool paper = mOptions.tiler == TilerKind::ContourTree;
+    const double voxel = mVolume.smallestVoxel();
+    collapseNeedleEdges(mesh, (paper ? kNeedleEdgeVoxels : 1e-6) * voxel, coarser);
+    if (paper) {
+        // The needles left, over longer edges where that lowers the worst aspect ratio around:
+        // a coarser level's bands and sectors are about twice as long, and so are its needles'
+        // short edges for one aspect ratio.
+        const int coarsening = std::min(levelCount() - 1 - level, 3);
+        collapseNeedleEdges(mesh, std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel, coarser,
+                            kCollapseAspect);
+        result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+    }
     return result;
 }
 

@@ -243,29 +243,37 @@ bool before(const glm::dvec3& a, const glm::dvec3& b)
     return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
 }
 
-// Whether moving corner b of the triangles `around` it (but those on edge a-b) to a leaves each
-// facing the way it did: a collapse that turns one over folds the surface.
-bool keepsFacing(const TriangleMesh& mesh, const std::vector<std::uint32_t>& around, const std::vector<bool>& gone,
-                 std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b)
+// Whether moving corner b of the triangles `around` it to a (those on edge a-b go) turns none of
+// them over, which would fold the surface, and with Guard::Better whether it also lowers the
+// largest aspect ratio among them.
+enum class Guard { None, Unfolded, Better };
+
+bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>& around, const std::vector<bool>& gone,
+                      std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, Guard guard)
 {
+    const std::vector<glm::dvec3>& p = mesh.vertices;
+    double worstBefore = 0.0, worstAfter = 0.0;
     for (const std::uint32_t f : around) {
         if (gone[f]) continue;
         Triangle t = mesh.triangles[f];
         for (std::uint32_t& w : t) w = rootOf(parent, w);
-        if (!holds(t, b) || holds(t, a)) continue;
+        if (!holds(t, b)) continue;
+        worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        if (holds(t, a)) continue;
         const glm::dvec3 before = faceNormal(mesh, t);
         for (std::uint32_t& w : t) w = w == b ? a : w;
         if (!(glm::dot(faceNormal(mesh, t), before) > 0.0)) return false;
+        worstAfter = std::max(worstAfter, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
     }
-    return true;
+    return guard != Guard::Better || worstAfter < worstBefore;
 }
 
 // Collapses each pair's second vertex into (the vertex that now stands for) its first, in order,
-// where the collapse keeps a closed manifold so, and with `unfolded` where it turns no triangle
-// over; a vertex already collapsed stays where it went.
+// where the collapse keeps a closed manifold so and passes `guard` (collapseImproves); a vertex
+// already collapsed stays where it went.
 // The vertices left keep their order.
 long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
-                        bool unfolded)
+                        Guard guard)
 {
     if (pairs.empty()) return 0; // the common case costs one pass over the triangles
     const std::vector<glm::dvec3>& p = mesh.vertices;
@@ -305,7 +313,7 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uin
         std::vector<std::uint32_t> shared;
         std::set_intersection(nearA.begin(), nearA.end(), nearB.begin(), nearB.end(), std::back_inserter(shared));
         if (on.size() != 2 || opposite.size() != 2 || shared != opposite) continue;
-        if (unfolded && !keepsFacing(mesh, around[b], gone, parent, a, b)) continue;
+        if (guard != Guard::None && !collapseImproves(mesh, around[b], gone, parent, a, b, guard)) continue;
         for (const std::uint32_t f : on) gone[f] = true;
         parent[b] = a;
         std::vector<std::uint32_t>& into = around[a];
@@ -363,10 +371,11 @@ long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
             if (a < b && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2) shortEdges.push_back({a, b});
         }
     std::sort(shortEdges.begin(), shortEdges.end());
-    return collapsePairs(mesh, shortEdges, false);
+    return collapsePairs(mesh, shortEdges, Guard::None);
 }
 
-long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser)
+long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
+                              double needleAspect)
 {
     std::vector<glm::dvec3> kept = coarser;
     std::sort(kept.begin(), kept.end(), before);
@@ -384,10 +393,12 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
     for (long long round = 1; round > 0; collapsed += round) {
         const std::vector<glm::dvec3>& p = mesh.vertices;
         std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs; // (kept, gone)
-        for (const Triangle& t : mesh.triangles)
+        for (const Triangle& t : mesh.triangles) {
+            if (needleAspect > 0.0 && !(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > needleAspect)) continue;
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-                if (!(a < b && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2)) continue;
+                // Each edge once (from either triangle on it when only needles count).
+                if (!((a < b || needleAspect > 0.0) && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2)) continue;
                 bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
                 if (keepA && keepB) {
                     if (p[a] != p[b] || copies(p[a]) > 1) continue;
@@ -396,11 +407,13 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                 // A vertex of the coarser level stays; between two new ones, the first by position.
                 pairs.push_back(keepA || (!keepB && before(p[a], p[b])) ? std::pair{a, b} : std::pair{b, a});
             }
+        }
         // By position, not id: the same collapses whichever way the level was built.
         std::sort(pairs.begin(), pairs.end(), [&](const auto& x, const auto& y) {
             return p[x.second] != p[y.second] ? before(p[x.second], p[y.second]) : before(p[x.first], p[y.first]);
         });
-        round = collapsePairs(mesh, pairs, true);
+        pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+        round = collapsePairs(mesh, pairs, needleAspect > 0.0 ? Guard::Better : Guard::Unfolded);
     }
     return collapsed;
 }

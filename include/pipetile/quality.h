@@ -55,15 +55,25 @@ long long collapseShortEdges(TriangleMesh& mesh, double tolerance);
 /// is a needle whatever the diagonals (its aspect ratio is about the edge's distance to the third
 /// corner over its length), so no flip removes it. The surface moves by at most the edges' length;
 /// positions are not moved; deterministic, and the same for a level refined or built from scratch.
+/// With `needleAspect` > 0, only the edges of triangles whose aspect ratio exceeds it, and only
+/// where a collapse lowers the largest aspect ratio of the triangles around the vertex that goes.
 /// @return the number of edges collapsed.
-long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser);
+long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
+                              double needleAspect = 0.0);
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
-/// edges lie far below (tree, aorta: under 0.01 voxel; the hollow Y's up to 0.3), the rays' own
-/// spacing on a tube of a few voxels far above, and the top level's distance to the isosurface
-/// (under 0.75 voxel, multires.cpp) has room for it. Twice this folded the surface (aspect 1e9
-/// on the aorta's top level).
+/// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of
+/// a few voxels far above. Every such edge goes where no triangle turns over; twice this, the
+/// collapses folded the surface (aspect 1e9 on the aorta's top level).
 constexpr double kNeedleEdgeVoxels = 0.1;
+
+/// Then the edges of the triangles over kCollapseAspect, up to this many voxels at the top level
+/// (twice as far each level coarser, at most 8 times), go where that lowers the largest aspect
+/// ratio around (the hollow Y's and the bean's are 0.1 to 0.3 voxel). Half the bound of issue 17,
+/// so that a collapse also takes the triangles next to a needle down with it. The top level stays
+/// within the voxel of the isosurface it was (hollow Y 0.71, bean 0.53 voxel).
+constexpr double kNeedleReachVoxels = 0.3;
+constexpr double kCollapseAspect = 50.0;
 
 /// Triangles with an angle below this many degrees are counted as needles in reports.
 constexpr double kNeedleDegrees = 5.0;
