@@ -246,7 +246,7 @@ bool before(const glm::dvec3& a, const glm::dvec3& b)
 // Whether moving corner b of the triangles `around` it to a (those on edge a-b go) turns none of
 // them over, which would fold the surface, and with Guard::Better whether it also lowers the
 // largest aspect ratio among them.
-enum class Guard { None, Unfolded, Better };
+enum class Guard { Unfolded, Better };
 
 bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>& around, const std::vector<bool>& gone,
                       std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, Guard guard)
@@ -313,7 +313,7 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uin
         std::vector<std::uint32_t> shared;
         std::set_intersection(nearA.begin(), nearA.end(), nearB.begin(), nearB.end(), std::back_inserter(shared));
         if (on.size() != 2 || opposite.size() != 2 || shared != opposite) continue;
-        if (guard != Guard::None && !collapseImproves(mesh, around[b], gone, parent, a, b, guard)) continue;
+        if (!collapseImproves(mesh, around[b], gone, parent, a, b, guard)) continue;
         for (const std::uint32_t f : on) gone[f] = true;
         parent[b] = a;
         std::vector<std::uint32_t>& into = around[a];
@@ -360,20 +360,6 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
     return normals;
 }
 
-long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
-{
-    const std::vector<glm::dvec3>& p = mesh.vertices;
-    const double tolerance2 = tolerance * tolerance;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> shortEdges;
-    for (const Triangle& t : mesh.triangles)
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-            if (a < b && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2) shortEdges.push_back({a, b});
-        }
-    std::sort(shortEdges.begin(), shortEdges.end());
-    return collapsePairs(mesh, shortEdges, Guard::None);
-}
-
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               double needleAspect)
 {
@@ -404,8 +390,10 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                     if (p[a] != p[b] || copies(p[a]) > 1) continue;
                     keepB = false; // one copy stays
                 }
-                // A vertex of the coarser level stays; between two new ones, the first by position.
-                pairs.push_back(keepA || (!keepB && before(p[a], p[b])) ? std::pair{a, b} : std::pair{b, a});
+                // A vertex of the coarser level stays; between two new ones, the first by position (by id
+                // between copies of one point, which both ways of building a level number alike).
+                const bool first = before(p[a], p[b]) || (p[a] == p[b] && a < b);
+                pairs.push_back(keepA || (!keepB && first) ? std::pair{a, b} : std::pair{b, a});
             }
         }
         // By position, not id: the same collapses whichever way the level was built.

@@ -32,31 +32,23 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 /// @return the number of flips made.
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 
-/// Collapses each edge no longer than `tolerance` (world units) into its lower-numbered end, where
-/// the collapse keeps a closed manifold so (the edge has two triangles, and its ends share no
-/// neighbour but those triangles' third corners): the two triangles go, and so does the other end,
-/// after which the vertices are renumbered in their order. Two constructions can put a vertex at
-/// one point up to rounding: a junction part's ray, cast from the partner's central point, meets
-/// the single contour's polygon where that contour's own ray does when both centres lie on one
-/// line with the point; each gave a triangle of no area. Positions are not moved, so levels still
-/// nest; linear in the mesh, deterministic.
-/// @return the number of edges collapsed.
-long long collapseShortEdges(TriangleMesh& mesh, double tolerance);
-
-/// Removes the vertices that make needles: each end of an edge no longer than `tolerance` (world
-/// units) goes into the other end, unless it is a vertex of the coarser level (`coarser`, its
-/// positions: empty for level 0), so that each level's vertices stay a subset of the next's
-/// whatever this level removes (a vertex this level keeps is one the next keeps too). Between two
-/// new ends the one that comes later by position (x, then y, then z) goes. Each collapse is made
-/// where it keeps a closed manifold so (collapseShortEdges' link condition), so a section thinner
-/// than the tolerance keeps the vertices that would pinch it. Such edges lie in slice planes: the
-/// partner's ray of a junction part meets the single contour's polygon next to where that
-/// contour's own ray does, or two rays meet a contour thinner than a voxel. Every triangle on one
-/// is a needle whatever the diagonals (its aspect ratio is about the edge's distance to the third
-/// corner over its length), so no flip removes it. The surface moves by at most the edges' length;
-/// positions are not moved; deterministic, and the same for a level refined or built from scratch.
-/// With `needleAspect` > 0, only the edges of triangles whose aspect ratio exceeds it, and only
-/// where a collapse lowers the largest aspect ratio of the triangles around the vertex that goes.
+/// Removes the vertices that make needles. Each end of an edge no longer than `tolerance` (world
+/// units) goes into the other end, the edge's two triangles with it, unless it is a vertex of the
+/// level below (`coarser`: its positions, one entry per copy; empty for level 0). So each level's
+/// vertices stay a subset of the next's whatever this level removes: a vertex the level below
+/// kept, this level keeps. Between two new ends, the one later by position (x, then y, then z)
+/// goes; between copies of one point, the higher-numbered. A collapse is made where it keeps a
+/// closed manifold so (the edge has two triangles, and its ends share no neighbour but their
+/// third corners) and turns no triangle over; rounds go on until none is left to make. The
+/// vertices left keep their order and positions.
+/// Such edges lie in slice planes: a junction part's ray, cast from the partner's central point,
+/// meets the single contour's polygon next to where that contour's own ray does (or at the same
+/// point, a triangle of no area), or two rays meet a contour thinner than a voxel. Every triangle
+/// on such an edge is a needle whatever the diagonals (its aspect ratio is about the distance to
+/// its third corner over the edge's length), so no flip removes it.
+/// With `needleAspect` > 0, only the edges of triangles whose aspect ratio exceeds it are looked
+/// at, and a collapse is made only where it lowers the largest aspect ratio of the triangles
+/// around the vertex that goes. Deterministic; the surface moves by at most the edges' length.
 /// @return the number of edges collapsed.
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               double needleAspect = 0.0);
