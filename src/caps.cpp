@@ -2,6 +2,10 @@
 
 #include <pipetile/caps.h>
 
+#include <glm/common.hpp>
+
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -28,6 +32,32 @@ bool findApex(const SlicePlane& plane, const glm::dvec2& center, double directio
         inT = t;
     }
     return false;
+}
+
+bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double direction, double reach, double& w,
+                   double sign)
+{
+    if (loop.points.empty()) return false;
+    glm::dvec2 lo = loop.points.front(), hi = lo;
+    for (const glm::dvec2& p : loop.points) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    // Pixel centres, or every k-th one in a large loop: probes far enough apart to be cheap,
+    // near enough to catch a twisted end's corner (a voxel or two wide).
+    constexpr double kProbesPerSide = 16.0;
+    const double step = std::max(1.0, std::ceil(std::max(hi.x - lo.x, hi.y - lo.y) / kProbesPerSide));
+    bool found = false;
+    for (double y = std::floor(lo.y) + 0.5; y < hi.y; y += step) {
+        for (double x = std::floor(lo.x) + 0.5; x < hi.x; x += step) {
+            const glm::dvec2 probe(x, y);
+            double wProbe = plane.w();
+            if (!encloses(loop, probe) || !findApex(plane, probe, direction, reach, wProbe, sign)) continue;
+            if (!found || direction * (wProbe - w) > 0.0) w = wProbe;
+            found = true;
+        }
+    }
+    return found;
 }
 
 std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)

@@ -17,6 +17,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -93,6 +94,19 @@ std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const
         for (std::size_t r = 0; r < byDistance.size(); ++r) rank[x][byDistance[r].second] = static_cast<int>(r);
     }
     return rank;
+}
+
+// End contours sit a quarter voxel inside where the object ends (addEndContour).
+constexpr double kEndInset = 0.25;
+
+// Pixels apart, on average, that a band to an end contour may pair points (misregistration): the
+// bands' own bound on shape change (correspond).
+constexpr double kOutOfRegister = 3.0;
+
+// How far past a tube's last contour its end is sought: a slice spacing and two voxels.
+double endReach(const MeshOptions& options)
+{
+    return options.slicing.spacingVoxels + 2.0;
 }
 
 // How far apart a band between two loops of one tube puts the points that rays of one direction
@@ -644,76 +658,115 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     return centroidIn && centroidClearance >= 1.0 ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
 }
 
-void Reconstruction::closeEnds()
+std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(const SliceLoop& member, bool hole, double w)
 {
-    // Tube ends that no junction joins. Where the axis through the end contour's central point
+    std::vector<BoundaryLoop> loops = traceBoundaries(SlicePlane(mVolume, mPlan, w));
+    const int best = nearest(
+        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
+        [&](int k) {
+            const BoundaryLoop& candidate = loops[k];
+            return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
+                   (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
+                    overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0);
+        });
+    if (best < 0) return std::nullopt;
+    // Its own central point, from which the apex is highest on a rounded end; but where
+    // the band from the last contour to it would pair points more than 3 pixels apart on
+    // average (as bands may change shape, correspond), the point that follows the last
+    // contour's as along the tube (followCentres), if that pairs them closer: a C's own
+    // point can lie elsewhere in it (the twisting C's end band turned a quarter turn, 13.9
+    // pixels out of register and 6.2 voxels off the surface).
+    SliceLoop endLoop{std::move(loops[best]), {}, {}};
+    const glm::dvec2 center = centralPoint(endLoop.loop);
+    endLoop.view = viewFrom(endLoop.loop, center);
+    endLoop.profile = radialProfile(endLoop.view, profileDirections());
+    const double own = endLoop.view.winding == 1
+                           ? misregistration(member.view, member.profile, endLoop.view, endLoop.profile)
+                           : std::numeric_limits<double>::infinity();
+    const glm::dvec2 followed = followedCentre(member, endLoop);
+    if (own > kOutOfRegister && followed != center) {
+        LoopView view = viewFrom(endLoop.loop, followed);
+        RadialProfile profile = view.winding == 1 ? radialProfile(view, profileDirections()) : RadialProfile{};
+        if (view.winding == 1 && misregistration(member.view, member.profile, view, profile) < own) {
+            endLoop.view = std::move(view);
+            endLoop.profile = std::move(profile);
+        }
+    }
+    if (endLoop.view.winding != 1) return std::nullopt;
+    return endLoop;
+}
+
+bool Reconstruction::addEndContour(Tube& tube, bool top)
+{
+    // A tube end that no junction joins. Where the axis through the end contour's central point
     // leaves the object, an end contour a quarter voxel inside that point is added, so caps sit
     // within a quarter voxel of flat ends and follow rounded ones; the apex is then sought again
     // from it. (Closer in, the field's rounding at the rim of a flat end shrinks the end contour:
-    // the bean's top level is 0.75 voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.)
-    const double reach = mOptions.slicing.spacingVoxels + 2.0;
-    constexpr double kEndInset = 0.25;
+    // the bean's top level is 0.75 voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.) Where the
+    // region inside the contour reaches farther than that axis (a flat end twisted, so the axis
+    // leaves through the side: the twisting C's cap was 1.65 voxels below its end), the end
+    // contour goes a quarter voxel inside the farthest reach instead, at most a slice spacing on.
+    // The next call goes on from it: a twisted end gets two, the first from the axis.
+    TubeEnd& end = top ? tube.top : tube.bottom;
+    const double direction = top ? 1.0 : -1.0;
+    const double reach = endReach(mOptions);
+    const auto [s, l] = top ? tube.members.back() : tube.members.front();
+    const SliceLoop& member = mLoops[s][l];
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    double wApex = plane.w();
+    const double sign = tube.hole ? -1.0 : 1.0;
+    end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
+    end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
+    if (!end.hasApex) return false;
+    // A cap leaves out what the region reaches past its apex. On a rounded end that is little
+    // (the bean's tilted domes: 0.12 voxel); half a voxel or more is an end the axis left early
+    // (the C twisting 15 degrees per voxel: its top apex 0.33 voxel past the last slice, its flat
+    // end 1.0, capped at the slice without an end contour).
+    constexpr double kCapSlack = 0.5;
+    double wFar = wApex, wTarget = wApex;
+    if (farthestReach(plane, member.loop, direction, reach, wFar, sign) && direction * (wFar - wApex) > kCapSlack)
+        wTarget = wFar;
+    // The end band is held to the bands' rule (correspond): halved, down to half a voxel, while
+    // it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
+    // degrees of turn in one step, was 1.07 voxels off).
+    double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
+    if (step < 0.25) return false;
+    std::optional<SliceLoop> endLoop = endContourAt(member, tube.hole, plane.w() + direction * step);
+    while (endLoop && step > 0.5 &&
+           misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister) {
+        std::optional<SliceLoop> closer = endContourAt(member, tube.hole, plane.w() + direction * 0.5 * step);
+        if (!closer) break;
+        endLoop = std::move(closer);
+        step *= 0.5;
+    }
+    if (!endLoop) return false;
+    const double wEnd = plane.w() + direction * step;
+    const glm::dvec2 center = endLoop->view.center;
+    mPositions.push_back(wEnd);
+    mLoops.push_back({}); // `member` dangles from here on
+    mLoops.back().push_back(std::move(*endLoop));
+    const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
+    if (top)
+        tube.members.push_back(added);
+    else
+        tube.members.insert(tube.members.begin(), added);
+    ++mStats.endContours;
+    double wAgain = wEnd;
+    end.hasApex = findApex(SlicePlane(mVolume, mPlan, wEnd), center, direction, 2.0 * kEndInset + 1.0, wAgain, sign);
+    end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
+    return true;
+}
+
+void Reconstruction::closeEnds()
+{
     for (Tube& tube : mTubes) {
         for (const bool top : {false, true}) {
-            TubeEnd& end = top ? tube.top : tube.bottom;
-            if (end.junction >= 0) continue;
-            const double direction = top ? 1.0 : -1.0;
-            const auto [s, l] = top ? tube.members.back() : tube.members.front();
-            const SliceLoop& member = mLoops[s][l];
-            const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-            double wApex = plane.w();
-            const double sign = tube.hole ? -1.0 : 1.0;
-            end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
-            end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
-            const double wEnd = wApex - direction * kEndInset;
-            if (!end.hasApex || direction * (wEnd - plane.w()) < 0.25) continue;
-            const SlicePlane endPlane(mVolume, mPlan, wEnd);
-            std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
-            const int best = nearest(
-                static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
-                [&](int k) {
-                    const BoundaryLoop& candidate = loops[k];
-                    return candidate.hole() == tube.hole && std::abs(candidate.area) >= mOptions.minContourArea &&
-                           (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid));
-                });
-            if (best < 0) continue;
-            // Its own central point, from which the apex is highest on a rounded end; but where
-            // the band from the last contour to it would pair points more than 3 pixels apart on
-            // average (as bands may change shape, correspond), the point that follows the last
-            // contour's as along the tube (followCentres), if that pairs them closer: a C's own
-            // point can lie elsewhere in it (the twisting C's end band turned a quarter turn, 13.9
-            // pixels out of register and 6.2 voxels off the surface).
-            constexpr double kOutOfRegister = 3.0;
-            SliceLoop endLoop{std::move(loops[best]), {}, {}};
-            glm::dvec2 center = centralPoint(endLoop.loop);
-            endLoop.view = viewFrom(endLoop.loop, center);
-            endLoop.profile = radialProfile(endLoop.view, profileDirections());
-            const double own = endLoop.view.winding == 1
-                                   ? misregistration(member.view, member.profile, endLoop.view, endLoop.profile)
-                                   : std::numeric_limits<double>::infinity();
-            const glm::dvec2 followed = followedCentre(member, endLoop);
-            if (own > kOutOfRegister && followed != center) {
-                LoopView view = viewFrom(endLoop.loop, followed);
-                RadialProfile profile = view.winding == 1 ? radialProfile(view, profileDirections()) : RadialProfile{};
-                if (view.winding == 1 && misregistration(member.view, member.profile, view, profile) < own) {
-                    center = followed;
-                    endLoop.view = std::move(view);
-                    endLoop.profile = std::move(profile);
-                }
+            if ((top ? tube.top : tube.bottom).junction >= 0) continue;
+            // A bound on end contours per end, against a region that somehow never ends (each
+            // adds at most a slice spacing; a twisted flat end needs one, a long oblique one two).
+            constexpr int kMostEndContours = 8;
+            for (int added = 0; added < kMostEndContours && addEndContour(tube, top); ++added) {
             }
-            if (endLoop.view.winding != 1) continue;
-            mPositions.push_back(wEnd);
-            mLoops.push_back({});
-            mLoops.back().push_back(std::move(endLoop));
-            const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
-            if (top)
-                tube.members.push_back(added);
-            else
-                tube.members.insert(tube.members.begin(), added);
-            ++mStats.endContours;
-            double wAgain = wEnd;
-            end.hasApex = findApex(endPlane, center, direction, 2.0 * kEndInset + 1.0, wAgain, sign);
-            end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
         }
     }
     // One cap style for every level, so that levels nest: an apex fan where the end contour is
@@ -768,7 +821,7 @@ void Reconstruction::closeEnds()
             (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
             (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;
             ++mStats.annularCaps;
-            addRimContours(mTubes[best], mTubes[h], top, reach, kEndInset);
+            addRimContours(mTubes[best], mTubes[h], top, endReach(mOptions), kEndInset);
         }
     }
 }
@@ -1086,15 +1139,16 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
     }
 }
 
-LevelMesh Reconstruction::assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const
-{
-    const RaySet rays{mOptions.baseRays, level};
-    LevelMesh result;
-    result.level = level;
-    result.rays = rays.count();
-    TriangleMesh& mesh = result.mesh;
-    const bool mirrored = mVolume.mirrored();
+// One level's mesh as assemble() puts it together. The constructor numbers every vertex (the
+// tubes' members in tube order, then each junction's nodes and parts' crossings) and places it;
+// build() tiles the bands, caps and junction parts, in that order. It refers to the
+// reconstruction and the level's contours, which must outlive it; build() is called once.
+class Reconstruction::Assembly {
+public:
+    Assembly(const Reconstruction& reconstruction, const Contours& contours, int level);
+    LevelMesh build(const std::vector<glm::dvec3>& coarser);
 
+private:
     // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
     // apex follows the first (or last) contour of its tube. Contours, trees and bands are then
     // built in parallel and joined in this order, so the mesh does not depend on the threads.
@@ -1106,16 +1160,116 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
         std::uint32_t first;   // index of its first vertex
         std::uint32_t apex[2]; // bottom, top cap apex (members that end a tube with a fan)
     };
+    // A vertex on a member's contour edge that its own crossings do not give (numberJunctionVertices).
+    struct Extra {
+        int segment;
+        double param;
+        std::uint32_t id;
+        glm::dvec2 point;
+    };
+    using Chord = std::pair<int, int>;
+    // Parts' crossings on each chord, with their place along it (0 at its lower node).
+    using ChordVertices = std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>;
+    // A contour's ring: its crossings in walk order with its extras merged in by their place on
+    // the polygon; after[k] lists those between crossings k and k+1.
+    struct Ring {
+        std::vector<std::uint32_t> ids;
+        std::vector<glm::dvec2> points; // in-plane, pixel units
+        std::vector<std::vector<std::uint32_t>> after;
+    };
+    // The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
+    // in band-local ids: the lower contour's crossings, then the upper one's.
+    struct Side {
+        const Contour* contour;
+        const ContourString* string; // with the contour tree tiler
+        const ContourTree* tree;
+        std::uint32_t first;
+    };
+
+    void collectMembers();
+    void castParts();
+    void numberJunctionVertices();
+    void placeVertices();
+    std::size_t memberAt(const std::pair<int, int>& loop) const;
+    glm::dvec3 toWorld(const glm::dvec2& uv, int plane) const;
+    Ring ringOf(std::size_t i) const;
+    void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
+    void buildTrees();
+    std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes) const;
+    Side sideOf(std::size_t i) const;
+    static void place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip);
+    void tileBands();
+    ContourTree treeOf(std::size_t i) const;
+    void emitCap(std::size_t self, bool top);
+    void emitBandsAndCaps();
+    void tileJunction(std::size_t j);
+    std::vector<std::uint32_t> partBoundary(std::size_t j, std::size_t k, const Ring& ring, const Ring& innerRing,
+                                            const ChordVertices& chords) const;
+    void tilePart(std::size_t j, std::size_t k, const std::vector<std::uint32_t>& boundary);
+
+    // The reconstruction's state, under its own names.
+    const Volume& mVolume;
+    const SlicePlan& mPlan;
+    const MeshOptions& mOptions;
+    const std::vector<double>& mPositions;
+    const std::vector<std::vector<SliceLoop>>& mLoops;
+    const std::vector<Tube>& mTubes;
+    const std::vector<Junction>& mJunctions;
+
+    const Contours& contours;
+    const RaySet rays;
+    const bool mirrored;
+    LevelMesh result;
+    TriangleMesh& mesh = result.mesh;
     std::vector<Member> members;
-    std::vector<std::size_t> tubeFirst(mTubes.size());     // index in `members` of each tube's first
-    std::vector<std::vector<int>> memberOf(mLoops.size()); // per plane and loop; -1: not tiled
-    for (std::size_t s = 0; s < mLoops.size(); ++s) memberOf[s].assign(mLoops[s].size(), -1);
+    std::vector<std::size_t> tubeFirst;     // index in `members` of each tube's first
+    std::vector<std::vector<int>> memberOf; // per plane and loop; -1: not tiled
     std::uint32_t vertexCount = 0;
+    std::vector<std::vector<Contour>> parts;           // per junction, per partner
+    std::vector<std::vector<Extra>> extras;            // per member
+    std::vector<ChordVertices> onChord;                // per junction
+    std::vector<std::uint32_t> firstNodeOf;            // per junction
+    std::vector<std::vector<std::uint32_t>> partFirst; // per junction, per partner
+    std::vector<std::unique_ptr<ContourTree>> trees;   // per member, with the contour tree tiler
+    std::vector<ContourString> strings;                // per member, likewise
+    std::vector<std::size_t> bandBytes;                // per member
+    std::vector<std::vector<Triangle>> bands;          // per member: the band to the one before it
+};
+
+Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& contours, int level)
+    : mVolume(r.mVolume),
+      mPlan(r.mPlan),
+      mOptions(r.mOptions),
+      mPositions(r.mPositions),
+      mLoops(r.mLoops),
+      mTubes(r.mTubes),
+      mJunctions(r.mJunctions),
+      contours(contours),
+      rays{r.mOptions.baseRays, level},
+      mirrored(r.mVolume.mirrored()),
+      tubeFirst(r.mTubes.size()),
+      memberOf(r.mLoops.size()),
+      parts(r.mJunctions.size()),
+      onChord(r.mJunctions.size()),
+      firstNodeOf(r.mJunctions.size()),
+      partFirst(r.mJunctions.size())
+{
+    result.level = level;
+    result.rays = rays.count();
+    collectMembers();
+    castParts();
+    numberJunctionVertices();
+    placeVertices();
+}
+
+void Reconstruction::Assembly::collectMembers()
+{
+    for (std::size_t s = 0; s < mLoops.size(); ++s) memberOf[s].assign(mLoops[s].size(), -1);
     for (const Tube& tube : mTubes) {
         tubeFirst[&tube - mTubes.data()] = members.size();
         for (std::size_t k = 0; k < tube.members.size(); ++k) {
             const auto [s, l] = tube.members[k];
-            if (mLoops[s][l].fromLevel > level) {
+            if (mLoops[s][l].fromLevel > result.level) {
                 ++result.skippedContours;
                 continue;
             }
@@ -1139,11 +1293,14 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
             members.push_back(member);
         }
     }
-    // Junction vertices. Nodes, the same at every level (junction.nodePoints); then each part's
-    // crossings: the partner's rays cast against the part's polygon, so that the part is tiled to
-    // the partner like any band. A part that gives no contour (no crossings) is tiled by the
-    // minimum-area tiler instead.
-    std::vector<std::vector<Contour>> parts(mJunctions.size()); // per junction, per partner
+}
+
+// Junction vertices. Nodes, the same at every level (junction.nodePoints); then each part's
+// crossings: the partner's rays cast against the part's polygon, so that the part is tiled to
+// the partner like any band. A part that gives no contour (no crossings) is tiled by the
+// minimum-area tiler instead.
+void Reconstruction::Assembly::castParts()
+{
     forEachIndex(mOptions.threads, mJunctions.size(), [&](std::size_t j) {
         const Junction& junction = mJunctions[j];
         for (std::size_t k = 0; k < junction.parts.size(); ++k) {
@@ -1154,23 +1311,14 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
             parts[j].push_back(std::move(c));
         }
     });
-    // Extras: the vertices on a member's contour edges that its own crossings do not give (cuts,
-    // and the parts' crossings on its arcs), by polygon segment and place along it (0 at its
-    // first point). Parts' crossings on chords: per junction, by the chord's nodes (lower first).
-    struct Extra {
-        int segment;
-        double param;
-        std::uint32_t id;
-        glm::dvec2 point;
-    };
-    std::vector<std::vector<Extra>> extras(members.size());
-    using Chord = std::pair<int, int>;
-    std::vector<std::map<Chord, std::vector<std::pair<double, std::uint32_t>>>> onChord(mJunctions.size());
-    std::vector<std::uint32_t> firstNodeOf(mJunctions.size());
-    std::vector<std::vector<std::uint32_t>> partFirst(mJunctions.size());
-    auto memberAt = [&](const std::pair<int, int>& loop) {
-        return static_cast<std::size_t>(memberOf[loop.first][loop.second]);
-    };
+}
+
+// Extras: the vertices on a member's contour edges that its own crossings do not give (cuts,
+// and the parts' crossings on its arcs), by polygon segment and place along it (0 at its
+// first point). Parts' crossings on chords: per junction, by the chord's nodes (lower first).
+void Reconstruction::Assembly::numberJunctionVertices()
+{
+    extras.resize(members.size());
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
         const std::size_t n = junction.cuts.size();
@@ -1188,10 +1336,21 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
             vertexCount += static_cast<std::uint32_t>(part.crossings.size());
         }
     }
+}
+
+std::size_t Reconstruction::Assembly::memberAt(const std::pair<int, int>& loop) const
+{
+    return static_cast<std::size_t>(memberOf[loop.first][loop.second]);
+}
+
+glm::dvec3 Reconstruction::Assembly::toWorld(const glm::dvec2& uv, int plane) const
+{
+    return mVolume.indexToWorld(planeToIndex(mPlan.axis, uv, mPositions[plane]));
+}
+
+void Reconstruction::Assembly::placeVertices()
+{
     mesh.vertices.resize(vertexCount);
-    auto toWorld = [&](const glm::dvec2& uv, int plane) {
-        return mVolume.indexToWorld(planeToIndex(mPlan.axis, uv, mPositions[plane]));
-    };
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
         for (std::size_t j = 0; j < m.contour->crossings.size(); ++j)
@@ -1232,78 +1391,75 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
             }
         }
     }
+}
 
-    // A contour's ring: its crossings in walk order with its extras merged in by their place on
-    // the polygon; after[k] lists those between crossings k and k+1.
-    struct Ring {
-        std::vector<std::uint32_t> ids;
-        std::vector<glm::dvec2> points; // in-plane, pixel units
-        std::vector<std::vector<std::uint32_t>> after;
+// A contour's ring: its crossings in walk order with its extras merged in by their place on
+// the polygon; after[k] lists those between crossings k and k+1.
+Reconstruction::Assembly::Ring Reconstruction::Assembly::ringOf(std::size_t i) const
+{
+    const Member& m = members[i];
+    const Contour& contour = *m.contour;
+    const std::vector<Crossing>& x = contour.crossings;
+    const std::vector<glm::dvec2>& polygon = mLoops[m.slice][m.loop].view.polygon;
+    const long long segments = static_cast<long long>(polygon.size());
+    // Where a crossing lies along its segment: where its ray meets the polygon.
+    auto placeOf = [&](const Crossing& c) {
+        const glm::dvec2 onPolygon = contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
+        return placeOn(polygon[c.segment], polygon[(c.segment + 1) % segments], onPolygon);
     };
-    auto ringOf = [&](std::size_t i) {
-        const Member& m = members[i];
-        const Contour& contour = *m.contour;
-        const std::vector<Crossing>& x = contour.crossings;
-        const std::vector<glm::dvec2>& polygon = mLoops[m.slice][m.loop].view.polygon;
-        const long long segments = static_cast<long long>(polygon.size());
-        // Where a crossing lies along its segment: where its ray meets the polygon.
-        auto placeOf = [&](const Crossing& c) {
-            const glm::dvec2 onPolygon =
-                contour.center + (c.t > 0.0 ? c.crackT / c.t : 0.0) * (c.point - contour.center);
-            return placeOn(polygon[c.segment], polygon[(c.segment + 1) % segments], onPolygon);
-        };
-        // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
-        // segment, or an extra before it on its segment, comes last.
-        auto key = [&](long long segment) { return (segment - x[0].segment + segments) % segments; };
-        std::vector<long long> crossingKey(x.size());
-        for (std::size_t k = 0; k < x.size(); ++k)
-            crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
-        const double startPlace = extras[i].empty() ? 0.0 : placeOf(x[0]);
-        std::vector<std::pair<std::pair<long long, double>, const Extra*>> placed;
-        for (const Extra& e : extras[i]) {
-            const long long k = key(e.segment);
-            placed.push_back({{k == 0 && e.param <= startPlace ? segments : k, e.param}, &e});
+    // Walk positions from crossing 0, which starts the walk: a crossing earlier on its
+    // segment, or an extra before it on its segment, comes last.
+    auto key = [&](long long segment) { return (segment - x[0].segment + segments) % segments; };
+    std::vector<long long> crossingKey(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k)
+        crossingKey[k] = key(x[k].segment) == 0 && x[k].along < x[0].along ? segments : key(x[k].segment);
+    const double startPlace = extras[i].empty() ? 0.0 : placeOf(x[0]);
+    std::vector<std::pair<std::pair<long long, double>, const Extra*>> placed;
+    for (const Extra& e : extras[i]) {
+        const long long k = key(e.segment);
+        placed.push_back({{k == 0 && e.param <= startPlace ? segments : k, e.param}, &e});
+    }
+    std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first < b.first : a.second->id < b.second->id;
+    });
+    std::vector<std::vector<const Extra*>> after(x.size());
+    for (const auto& [at, e] : placed) {
+        std::size_t before = std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
+        while (before < x.size() && crossingKey[before] == at.first && placeOf(x[before]) < at.second) ++before;
+        after[before - 1].push_back(e);
+    }
+    Ring ring;
+    ring.after.resize(x.size());
+    for (std::size_t k = 0; k < x.size(); ++k) {
+        ring.ids.push_back(m.first + static_cast<std::uint32_t>(k));
+        ring.points.push_back(x[k].point);
+        for (const Extra* e : after[k]) {
+            ring.after[k].push_back(e->id);
+            ring.ids.push_back(e->id);
+            ring.points.push_back(e->point);
         }
-        std::sort(placed.begin(), placed.end(), [](const auto& a, const auto& b) {
-            return a.first != b.first ? a.first < b.first : a.second->id < b.second->id;
-        });
-        std::vector<std::vector<const Extra*>> after(x.size());
-        for (const auto& [at, e] : placed) {
-            std::size_t before =
-                std::lower_bound(crossingKey.begin(), crossingKey.end(), at.first) - crossingKey.begin();
-            while (before < x.size() && crossingKey[before] == at.first && placeOf(x[before]) < at.second) ++before;
-            after[before - 1].push_back(e);
-        }
-        Ring ring;
-        ring.after.resize(x.size());
-        for (std::size_t k = 0; k < x.size(); ++k) {
-            ring.ids.push_back(m.first + static_cast<std::uint32_t>(k));
-            ring.points.push_back(x[k].point);
-            for (const Extra* e : after[k]) {
-                ring.after[k].push_back(e->id);
-                ring.ids.push_back(e->id);
-                ring.points.push_back(e->point);
-            }
-        }
-        return ring;
-    };
-    // Extras lie on contour edges that the bands and caps tile as single edges: the triangle on
-    // each such edge becomes a fan through them.
-    auto splitForExtras = [&](std::vector<Triangle>& triangles, std::size_t i) {
-        if (extras[i].empty()) return;
-        const Ring ring = ringOf(i);
-        const std::uint32_t count = static_cast<std::uint32_t>(members[i].contour->crossings.size());
-        for (std::uint32_t k = 0; k < count; ++k)
-            if (!ring.after[k].empty())
-                splitEdge(triangles, members[i].first + k, members[i].first + (k + 1) % count, ring.after[k]);
-    };
+    }
+    return ring;
+}
 
-    // Contour trees, one per contour; where a sector is ambiguous, each band ranks its two
-    // contours against each other (rule [1'], below), so the trees may differ from band to band.
-    const Clock::time_point tiling = Clock::now();
-    std::vector<std::unique_ptr<ContourTree>> trees(members.size());
-    std::vector<ContourString> strings(members.size());
-    std::vector<std::size_t> bandBytes(members.size(), 0);
+// Extras lie on contour edges that the bands and caps tile as single edges: the triangle on
+// each such edge becomes a fan through them.
+void Reconstruction::Assembly::splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const
+{
+    if (extras[i].empty()) return;
+    const Ring ring = ringOf(i);
+    const std::uint32_t count = static_cast<std::uint32_t>(members[i].contour->crossings.size());
+    for (std::uint32_t k = 0; k < count; ++k)
+        if (!ring.after[k].empty())
+            splitEdge(triangles, members[i].first + k, members[i].first + (k + 1) % count, ring.after[k]);
+}
+
+// Contour trees, one per contour; where a sector is ambiguous, each band ranks its two
+// contours against each other (rule [1'], below), so the trees may differ from band to band.
+void Reconstruction::Assembly::buildTrees()
+{
+    trees.resize(members.size());
+    strings.resize(members.size());
     if (mOptions.tiler == TilerKind::ContourTree) {
         forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
             strings[i] = contourString(*members[i].contour);
@@ -1314,68 +1470,74 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
             result.tilingBytes += tree->bytes();
         }
     }
-    // The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
-    // in band-local ids: the lower contour's crossings, then the upper one's.
-    struct Side {
-        const Contour* contour;
-        const ContourString* string; // with the contour tree tiler
-        const ContourTree* tree;
-        std::uint32_t first;
-    };
-    auto tileSides = [&](const Side& lowerSide, const Side& upperSide, std::size_t& bytes) {
-        if (mOptions.tiler == TilerKind::ContourTree) {
-            // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
-            // closest to the upper contour's, then the upper one the F edge closest to that
-            // choice. Ranking each contour once, against the contour below it only, carried a
-            // choice made for one band into the next, where the upper contour's sector can hold
-            // the other F edge (bean: the arm tip grows past a ray between two slices) and the
-            // traversal then paired the tip with the hole's wall.
-            const ContourTree* lower = lowerSide.tree;
-            const ContourTree* upper = upperSide.tree;
-            std::unique_ptr<ContourTree> rankedLower, rankedUpper;
-            if (lower->ambiguousSectors() > 0) {
-                rankedLower = std::make_unique<ContourTree>(
-                    *lowerSide.string,
-                    rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
-                lower = rankedLower.get();
-                bytes += lower->bytes();
-            }
-            if (upper->ambiguousSectors() > 0) {
-                rankedUpper = std::make_unique<ContourTree>(
-                    *upperSide.string,
-                    rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
-                upper = rankedUpper.get();
-                bytes += upper->bytes();
-            }
-            return tileBand(*lower, *upper);
+}
+
+// The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
+// in band-local ids: the lower contour's crossings, then the upper one's.
+std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide, const Side& upperSide,
+                                                          std::size_t& bytes) const
+{
+    if (mOptions.tiler == TilerKind::ContourTree) {
+        // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
+        // closest to the upper contour's, then the upper one the F edge closest to that
+        // choice. Ranking each contour once, against the contour below it only, carried a
+        // choice made for one band into the next, where the upper contour's sector can hold
+        // the other F edge (bean: the arm tip grows past a ray between two slices) and the
+        // traversal then paired the tip with the hole's wall.
+        const ContourTree* lower = lowerSide.tree;
+        const ContourTree* upper = upperSide.tree;
+        std::unique_ptr<ContourTree> rankedLower, rankedUpper;
+        if (lower->ambiguousSectors() > 0) {
+            rankedLower = std::make_unique<ContourTree>(
+                *lowerSide.string,
+                rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
+            lower = rankedLower.get();
+            bytes += lower->bytes();
         }
-        // The baselines see the same contours as world-space points.
-        const auto first = mesh.vertices.begin();
-        const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
-        const std::vector<glm::dvec3> a(first + lowerSide.first, first + lowerSide.first + lowerCount);
-        const std::vector<glm::dvec3> b(first + upperSide.first,
-                                        first + upperSide.first + upperSide.contour->crossings.size());
-        ToroidalStats stats;
-        std::vector<Triangle> band =
-            mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
-        bytes += stats.bytes;
-        // A strip that fans one point over the whole other contour is no manifold (the oblique
-        // tube's tiny sections with --tiler optimal, before this).
-        return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
-    };
-    auto sideOf = [&](std::size_t i) {
-        return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first};
-    };
-    // Band-local ids to the mesh's, turned outward.
-    auto place = [](std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip) {
-        const std::uint32_t lowerCount = static_cast<std::uint32_t>(lower.contour->crossings.size());
-        for (Triangle& t : band) {
-            for (std::uint32_t& v : t) v = v < lowerCount ? lower.first + v : upper.first + (v - lowerCount);
-            if (flip) std::swap(t[1], t[2]);
+        if (upper->ambiguousSectors() > 0) {
+            rankedUpper = std::make_unique<ContourTree>(
+                *upperSide.string,
+                rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
+            upper = rankedUpper.get();
+            bytes += upper->bytes();
         }
-    };
-    // Bands: each member but a tube's first joins the one before it.
-    std::vector<std::vector<Triangle>> bands(members.size());
+        return tileBand(*lower, *upper);
+    }
+    // The baselines see the same contours as world-space points.
+    const auto first = mesh.vertices.begin();
+    const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
+    const std::vector<glm::dvec3> a(first + lowerSide.first, first + lowerSide.first + lowerCount);
+    const std::vector<glm::dvec3> b(first + upperSide.first,
+                                    first + upperSide.first + upperSide.contour->crossings.size());
+    ToroidalStats stats;
+    std::vector<Triangle> band =
+        mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+    bytes += stats.bytes;
+    // A strip that fans one point over the whole other contour is no manifold (the oblique
+    // tube's tiny sections with --tiler optimal, before this).
+    return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
+}
+
+Reconstruction::Assembly::Side Reconstruction::Assembly::sideOf(std::size_t i) const
+{
+    return Side{members[i].contour, &strings[i], trees[i].get(), members[i].first};
+}
+
+// Band-local ids to the mesh's, turned outward.
+void Reconstruction::Assembly::place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip)
+{
+    const std::uint32_t lowerCount = static_cast<std::uint32_t>(lower.contour->crossings.size());
+    for (Triangle& t : band) {
+        for (std::uint32_t& v : t) v = v < lowerCount ? lower.first + v : upper.first + (v - lowerCount);
+        if (flip) std::swap(t[1], t[2]);
+    }
+}
+
+// Bands: each member but a tube's first joins the one before it.
+void Reconstruction::Assembly::tileBands()
+{
+    bandBytes.assign(members.size(), 0);
+    bands.resize(members.size());
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         if (members[i].startsTube) return;
         bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i]);
@@ -1383,53 +1545,62 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
         splitForExtras(bands[i], i - 1);
         splitForExtras(bands[i], i);
     });
-    result.tilingSeconds = secondsSince(tiling);
     for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
+}
 
-    // A star-shaped end contour fans around its apex; any other, or one without an apex, is
-    // closed flat by ear clipping, which follows C-shaped and folded sections.
-    // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
-    // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
-    // inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
-    // junction gets nothing either: the junction's triangles close it.
-    auto treeOf = [&](std::size_t i) { return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour)); };
-    auto emitCap = [&](std::size_t self, bool top) {
-        const Member& m = members[self];
-        const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
-        if (end.junction >= 0 || (m.tube->hole && end.annulus >= 0)) return;
-        if (end.annulus >= 0) {
-            const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
-            std::size_t hole = tubeFirst[end.annulus];
-            if (top)
-                while (!members[hole].endsTube) ++hole;
-            std::vector<Triangle> annulus = tileBand(treeOf(self), treeOf(hole));
-            for (Triangle& t : annulus) {
-                for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
-                if (top == mirrored) std::swap(t[1], t[2]);
-            }
-            splitForExtras(annulus, self);
-            splitForExtras(annulus, hole);
-            mesh.triangles.insert(mesh.triangles.end(), annulus.begin(), annulus.end());
-            return;
+ContourTree Reconstruction::Assembly::treeOf(std::size_t i) const
+{
+    return trees[i] ? *trees[i] : ContourTree(contourString(*members[i].contour));
+}
+
+// A star-shaped end contour fans around its apex; any other, or one without an apex, is
+// closed flat by ear clipping, which follows C-shaped and folded sections.
+// An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
+// outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
+// inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
+// junction gets nothing either: the junction's triangles close it.
+void Reconstruction::Assembly::emitCap(std::size_t self, bool top)
+{
+    const Member& m = members[self];
+    const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
+    if (end.junction >= 0 || (m.tube->hole && end.annulus >= 0)) return;
+    if (end.annulus >= 0) {
+        const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
+        std::size_t hole = tubeFirst[end.annulus];
+        if (top)
+            while (!members[hole].endsTube) ++hole;
+        std::vector<Triangle> annulus = tileBand(treeOf(self), treeOf(hole));
+        for (Triangle& t : annulus) {
+            for (std::uint32_t& v : t) v = v < count ? m.first + v : members[hole].first + (v - count);
+            if (top == mirrored) std::swap(t[1], t[2]);
         }
-        const Ring ring = ringOf(self);
-        const std::uint32_t count = static_cast<std::uint32_t>(ring.ids.size());
-        auto index = [&](std::uint32_t v) { return v < count ? ring.ids[v] : m.apex[top ? 1 : 0]; };
-        // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
-        bool flip = m.tube->hole != mirrored;
-        std::vector<Triangle> cap;
-        if (end.fan) {
-            cap = tileCap(count, top);
-        } else {
-            cap = earClip(ring.points);
-            flip = flip != !top;
-        }
-        for (Triangle t : cap) {
-            for (std::uint32_t& v : t) v = index(v);
-            if (flip) std::swap(t[1], t[2]);
-            mesh.triangles.push_back(t);
-        }
-    };
+        splitForExtras(annulus, self);
+        splitForExtras(annulus, hole);
+        mesh.triangles.insert(mesh.triangles.end(), annulus.begin(), annulus.end());
+        return;
+    }
+    const Ring ring = ringOf(self);
+    const std::uint32_t count = static_cast<std::uint32_t>(ring.ids.size());
+    auto index = [&](std::uint32_t v) { return v < count ? ring.ids[v] : m.apex[top ? 1 : 0]; };
+    // Ear clipping gives the plane's counterclockwise order, which faces outward at the top.
+    bool flip = m.tube->hole != mirrored;
+    std::vector<Triangle> cap;
+    if (end.fan) {
+        cap = tileCap(count, top);
+    } else {
+        cap = earClip(ring.points);
+        flip = flip != !top;
+    }
+    for (Triangle t : cap) {
+        for (std::uint32_t& v : t) v = index(v);
+        if (flip) std::swap(t[1], t[2]);
+        mesh.triangles.push_back(t);
+    }
+}
+
+// Each tube in order: its bottom cap, its bands, its top cap.
+void Reconstruction::Assembly::emitBandsAndCaps()
+{
     std::size_t triangleCount = 0;
     for (const std::vector<Triangle>& band : bands) triangleCount += band.size();
     mesh.triangles.reserve(triangleCount + 2 * (vertexCount - static_cast<std::size_t>(result.crossings)) +
@@ -1439,118 +1610,137 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
         mesh.triangles.insert(mesh.triangles.end(), bands[i].begin(), bands[i].end());
         if (members[i].endsTube) emitCap(i, true);
     }
-    // Junctions: each part is tiled to its partner. Where its polygon gave a contour, by the
-    // band, then the part's edges are split by the vertices on them (the single contour's own
-    // crossings and extras along an arc, the other parts' crossings along a shared chord, the
-    // nodes); else from all those vertices by the minimum-area tiler. Parts share each chord once
-    // in either direction, so the pieces join into one manifold with c - 2 saddles for c contours.
-    for (std::size_t j = 0; j < mJunctions.size(); ++j) {
-        const Junction& junction = mJunctions[j];
-        const Ring ring = ringOf(memberAt(junction.single));
-        const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberAt(junction.inner)) : Ring{};
-        const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
-        const std::uint32_t firstNode = firstNodeOf[j];
-        std::map<Chord, std::vector<std::pair<double, std::uint32_t>>> chords = onChord[j];
-        for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
-        for (std::size_t k = 0; k < junction.many.size(); ++k) {
-            // The part's boundary: every vertex on it, in its order. Along an arc, the ring's
-            // entries from one cut to the next (as the bands split their edges); along a chord,
-            // the parts' crossings on it.
-            const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
-            std::vector<std::uint32_t> boundary;
-            for (std::size_t c = 0; c < corners.size();) {
-                const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
-                if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
-                const Ring& r = a.member == 1 ? innerRing : ring;
-                const std::size_t size = r.ids.size();
-                const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
-                                                          [(a.member == 1 ? junction.inner : junction.single).second]
-                                                              .view.polygon.size());
-                const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
-                if (a.member >= 0 && a.member == b.member && (forward || backward)) {
-                    std::size_t end = c + 1;
-                    while (corners[end % corners.size()].node < 0) ++end;
-                    const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
-                    std::size_t p = static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) -
-                                                             r.ids.begin());
-                    for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to;
-                         p = (p + (forward ? 1 : size - 1)) % size)
-                        boundary.push_back(r.ids[p]);
-                    c = end;
-                    continue;
-                }
-                const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
-                if (along != chords.end()) {
-                    if (a.node < b.node)
-                        for (const auto& [t, id] : along->second) boundary.push_back(id);
-                    else
-                        for (auto e = along->second.rbegin(); e != along->second.rend(); ++e)
-                            boundary.push_back(e->second);
-                }
-                ++c;
-            }
-            const std::size_t partner = memberAt(junction.many[k]);
-            const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
-            // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
-            const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
-            // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
-            // are not all there in their order (a crossing at a cut, placed on the next arc).
-            std::vector<std::size_t> at;
-            if (!parts[j][k].crossings.empty()) {
-                const std::uint32_t first = partFirst[j][k],
-                                    count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
-                for (std::size_t e = 0; e < boundary.size(); ++e)
-                    if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
-                const auto start =
-                    std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
-                if (start != at.end()) std::rotate(at.begin(), start, at.end());
-                for (std::uint32_t c = 0; c < at.size(); ++c)
-                    if (at.size() != count || boundary[at[c]] != first + c) at.clear();
-            }
-            std::vector<Triangle> triangles;
-            if (!at.empty()) {
-                const Contour& part = parts[j][k];
-                ContourString string;
-                std::unique_ptr<ContourTree> tree;
-                if (mOptions.tiler == TilerKind::ContourTree) {
-                    string = contourString(part);
-                    tree = std::make_unique<ContourTree>(string);
-                }
-                const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
-                const Side& lower = fork || rim ? partSide : partnerSide;
-                const Side& upper = fork || rim ? partnerSide : partSide;
-                std::size_t bytes = 0;
-                triangles = tileSides(lower, upper, bytes);
-                result.tilingBytes += bytes;
-                place(triangles, lower, upper, flip);
-                // The part's edges, split by the vertices the boundary has between its crossings.
-                for (std::size_t c = 0; c < at.size(); ++c) {
-                    const std::size_t next = at[(c + 1) % at.size()];
-                    std::vector<std::uint32_t> between;
-                    for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
-                        between.push_back(boundary[e]);
-                    if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
-                }
-                splitForExtras(triangles, partner);
-            } else {
-                ++result.areaJunctionParts;
-                const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
-                const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
-                const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
-                std::vector<glm::dvec3> lowerPoints, upperPoints;
-                for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
-                for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-                triangles =
-                    withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+}
+
+// Junctions: each part is tiled to its partner. Where its polygon gave a contour, by the
+// band, then the part's edges are split by the vertices on them (the single contour's own
+// crossings and extras along an arc, the other parts' crossings along a shared chord, the
+// nodes); else from all those vertices by the minimum-area tiler. Parts share each chord once
+// in either direction, so the pieces join into one manifold with c - 2 saddles for c contours.
+void Reconstruction::Assembly::tileJunction(std::size_t j)
+{
+    const Junction& junction = mJunctions[j];
+    const Ring ring = ringOf(memberAt(junction.single));
+    const Ring innerRing = junction.inner.first >= 0 ? ringOf(memberAt(junction.inner)) : Ring{};
+    ChordVertices chords = onChord[j];
+    for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
+    for (std::size_t k = 0; k < junction.many.size(); ++k) tilePart(j, k, partBoundary(j, k, ring, innerRing, chords));
+}
+
+// Part k's boundary: every vertex on it, in its order. Along an arc, the ring's entries from one
+// cut to the next (as the bands split their edges); along a chord, the parts' crossings on it.
+std::vector<std::uint32_t> Reconstruction::Assembly::partBoundary(std::size_t j, std::size_t k, const Ring& ring,
+                                                                  const Ring& innerRing,
+                                                                  const ChordVertices& chords) const
+{
+    const Junction& junction = mJunctions[j];
+    const std::uint32_t firstNode = firstNodeOf[j];
+    const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
+    std::vector<std::uint32_t> boundary;
+    for (std::size_t c = 0; c < corners.size();) {
+        const Junction::Part::Corner &a = corners[c], &b = corners[(c + 1) % corners.size()];
+        if (a.node >= 0) boundary.push_back(firstNode + static_cast<std::uint32_t>(a.node));
+        const Ring& r = a.member == 1 ? innerRing : ring;
+        const std::size_t size = r.ids.size();
+        const int points = static_cast<int>(mLoops[(a.member == 1 ? junction.inner : junction.single).first]
+                                                  [(a.member == 1 ? junction.inner : junction.single).second]
+                                                      .view.polygon.size());
+        const bool forward = b.point == (a.point + 1) % points, backward = a.point == (b.point + 1) % points;
+        if (a.member >= 0 && a.member == b.member && (forward || backward)) {
+            std::size_t end = c + 1;
+            while (corners[end % corners.size()].node < 0) ++end;
+            const std::uint32_t to = firstNode + static_cast<std::uint32_t>(corners[end % corners.size()].node);
+            std::size_t p =
+                static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), boundary.back()) - r.ids.begin());
+            for (p = (p + (forward ? 1 : size - 1)) % size; r.ids[p] != to; p = (p + (forward ? 1 : size - 1)) % size)
+                boundary.push_back(r.ids[p]);
+            c = end;
+            continue;
+        }
+        const auto along = chords.find({std::min(a.node, b.node), std::max(a.node, b.node)});
+        if (along != chords.end()) {
+            if (a.node < b.node)
+                for (const auto& [t, id] : along->second) boundary.push_back(id);
+            else
+                for (auto e = along->second.rbegin(); e != along->second.rend(); ++e) boundary.push_back(e->second);
+        }
+        ++c;
+    }
+    return boundary;
+}
+
+// Tiles part k of junction j, whose boundary holds the vertices listed.
+void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std::vector<std::uint32_t>& boundary)
+{
+    const Junction& junction = mJunctions[j];
+    const bool fork = junction.kind == EventKind::Fork, rim = junction.kind == EventKind::Rim;
+    const std::size_t partner = memberAt(junction.many[k]);
+    const bool partnerHole = mLoops[junction.many[k].first][junction.many[k].second].loop.hole();
+    // A rim's face, from the wall's arc to its hole in one plane, faces +w at the top.
+    const bool flip = rim ? junction.top == mirrored : partnerHole != mirrored;
+    // Where the part's crossings lie in its boundary, from crossing 0's on; empty if they
+    // are not all there in their order (a crossing at a cut, placed on the next arc).
+    std::vector<std::size_t> at;
+    if (!parts[j][k].crossings.empty()) {
+        const std::uint32_t first = partFirst[j][k], count = static_cast<std::uint32_t>(parts[j][k].crossings.size());
+        for (std::size_t e = 0; e < boundary.size(); ++e)
+            if (boundary[e] >= first && boundary[e] < first + count) at.push_back(e);
+        const auto start = std::find_if(at.begin(), at.end(), [&](std::size_t e) { return boundary[e] == first; });
+        if (start != at.end()) std::rotate(at.begin(), start, at.end());
+        for (std::uint32_t c = 0; c < at.size(); ++c)
+            if (at.size() != count || boundary[at[c]] != first + c) at.clear();
+    }
+    std::vector<Triangle> triangles;
+    if (!at.empty()) {
+        const Contour& part = parts[j][k];
+        ContourString string;
+        std::unique_ptr<ContourTree> tree;
+        if (mOptions.tiler == TilerKind::ContourTree) {
+            string = contourString(part);
+            tree = std::make_unique<ContourTree>(string);
+        }
+        const Side partSide{&part, &string, tree.get(), partFirst[j][k]}, partnerSide = sideOf(partner);
+        const Side& lower = fork || rim ? partSide : partnerSide;
+        const Side& upper = fork || rim ? partnerSide : partSide;
+        std::size_t bytes = 0;
+        triangles = tileSides(lower, upper, bytes);
+        result.tilingBytes += bytes;
+        place(triangles, lower, upper, flip);
+        // The part's edges, split by the vertices the boundary has between its crossings.
+        for (std::size_t c = 0; c < at.size(); ++c) {
+            const std::size_t next = at[(c + 1) % at.size()];
+            std::vector<std::uint32_t> between;
+            for (std::size_t e = (at[c] + 1) % boundary.size(); e != next; e = (e + 1) % boundary.size())
+                between.push_back(boundary[e]);
+            if (!between.empty()) splitEdge(triangles, boundary[at[c]], boundary[next], between);
+        }
+        splitForExtras(triangles, partner);
+    } else {
+        ++result.areaJunctionParts;
+        const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
+        const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
+        const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
+        std::vector<glm::dvec3> lowerPoints, upperPoints;
+        for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
+        for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
+        triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
                                     static_cast<std::uint32_t>(upper.size()));
-                for (Triangle& t : triangles) {
-                    for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
-                    if (flip) std::swap(t[1], t[2]);
-                }
-            }
-            mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
+        for (Triangle& t : triangles) {
+            for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
+            if (flip) std::swap(t[1], t[2]);
         }
     }
+    mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
+}
+
+LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser)
+{
+    const Clock::time_point tiling = Clock::now();
+    buildTrees();
+    tileBands();
+    result.tilingSeconds = secondsSince(tiling);
+    emitBandsAndCaps();
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) tileJunction(j);
     // Vertices a hair apart make needles (collapseNeedleEdges), or triangles of no area where a
     // junction part's crossing falls on a vertex of the single contour: all but the coarser
     // level's go. The baselines stay as their papers give them (the optimal tiler's is the least
@@ -1563,12 +1753,17 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
         // The needles left, over longer edges where that lowers the worst aspect ratio around:
         // a coarser level's bands and sectors are about twice as long, and so are its needles'
         // short edges for one aspect ratio.
-        const int coarsening = std::min(levelCount() - 1 - level, 3);
+        const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
         collapseNeedleEdges(mesh, std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel, coarser,
                             kCollapseAspect);
         result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     }
-    return result;
+    return std::move(result);
+}
+
+LevelMesh Reconstruction::assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const
+{
+    return Assembly(*this, contours, level).build(coarser);
 }
 
 Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&reconstruction)

@@ -44,10 +44,12 @@ TEST(Multires, StraightCapsuleHasTheExactTriangleCount)
     // band is active where |phi| < 3 voxels: z from 4 to 124, so slices sit at z = 4, 6, ..., 124.
     // Slices at z = 6 and 122 touch only the tips (radius 0, nothing strictly inside), those
     // beyond are empty, and z = 8 .. 120 (radius >= 6) each hold one circle: 57 contours. The
-    // axis meets the tips at z = 6 and 122, so an end contour is added a quarter voxel inside each
-    // (z = 6.25 and 121.75, radius sqrt(100 - 9.75^2) = 2.2): 59 contours in one tube.
+    // axis meets the tips at z = 6 and 122, so end contours go a quarter voxel inside each
+    // (z = 6.25 and 121.75, radius sqrt(100 - 9.75^2) = 2.22). From the last circle's radius 6
+    // that band would change by 3.78 pixels, over the bands' 3, so it is halved: an end contour at
+    // z = 7.125 (radius 4.61, 1.39 from 6), then one at 6.25 (2.39 from 4.61); 61 in one tube.
     // Circles are star-shaped: n crossings each, two triangles per crossing (bands of m_k + m_k+1,
-    // caps of m around the tips): 2 * n * 59 triangles, n * 59 + 2 vertices (2 cap apexes).
+    // caps of m around the tips): 2 * n * 61 triangles, n * 61 + 2 vertices (2 cap apexes).
     // On every slice (the paper's levels); by default levels skip slices (next test).
     const Volume& v = cachedSample("straight");
     MeshOptions options;
@@ -57,15 +59,15 @@ TEST(Multires, StraightCapsuleHasTheExactTriangleCount)
     const Reconstruction r(v, options);
     EXPECT_EQ(r.plan().axis, 2);
     EXPECT_EQ(r.stats().contours, 57);
-    EXPECT_EQ(r.stats().endContours, 2);
+    EXPECT_EQ(r.stats().endContours, 4);
     EXPECT_EQ(r.stats().tubes, 1);
     for (int level = 0; level < 4; ++level) {
         const LevelMesh m = r.buildLevel(level);
         const std::size_t n = 8u << level;
         EXPECT_EQ(m.ambiguousContours, 0);
-        EXPECT_EQ(m.contours, 59);
-        EXPECT_EQ(m.mesh.triangles.size(), 2 * n * 59);
-        EXPECT_EQ(m.mesh.vertices.size(), n * 59 + 2);
+        EXPECT_EQ(m.contours, 61);
+        EXPECT_EQ(m.mesh.triangles.size(), 2 * n * 61);
+        EXPECT_EQ(m.mesh.vertices.size(), n * 61 + 2);
         expectClosedSphere(m.mesh, 1);
     }
 }

@@ -4,6 +4,7 @@
 // contours themselves are placed by the reconstruction's closeEnds stage (multires.h) with these.
 #pragma once
 
+#include <pipetile/contour.h>
 #include <pipetile/slicer.h>
 #include <pipetile/tiler.h>
 
@@ -21,6 +22,14 @@ namespace pipetile {
 /// voxels along the axis, and `w` (out) an index coordinate. Throws nothing.
 bool findApex(const SlicePlane& plane, const glm::dvec2& point, double direction, double reach, double& w,
               double sign = 1.0);
+
+/// How far the region inside `loop` reaches beyond `plane`: findApex from pixel centres in the
+/// loop (at most about 256 of them, evenly spread over its box), and the farthest of the places
+/// they leave the region; false if none does within `reach`. A cap at an end contour leaves out
+/// what lies beyond it, so this says how much a flat or twisted end would lose where the axis
+/// through one central point ends early. Units as findApex's. Throws nothing.
+bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double direction, double reach, double& w,
+                   double sign = 1.0);
 
 /// Triangulates a simple polygon, counterclockwise in the plane, by ear clipping: m - 2
 /// triangles, counterclockwise. Where rounding leaves no clean ear (a nearly degenerate polygon),

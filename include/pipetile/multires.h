@@ -26,6 +26,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <optional>
 #include <vector>
 
 namespace pipetile {
@@ -179,8 +180,11 @@ private:
     /// also halves sectors whose edges cut corners (contour.h, strayingChords); no level is built
     /// from it, so nesting holds.
     void addFoldRays(Contours& contours, int level) const;
-    /// The level's mesh; the vertices of `coarser` (the level below's, empty for level 0) stay.
+    /// The level's mesh from its contours: bands, caps and junctions (Assembly, multires.cpp).
+    /// The vertices of `coarser` (the level below's, empty for level 0) stay (quality.h,
+    /// collapseNeedleEdges).
     LevelMesh assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const;
+    class Assembly;
 
     static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)
     struct SliceLoop {
@@ -265,6 +269,12 @@ private:
     /// The central point of `loop` that follows `before`'s along their tube (see followCentres).
     static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
     void closeEnds();
+    /// Adds one end contour past the tube's end on that side, if the object reaches on there;
+    /// false if it added none.
+    bool addEndContour(Tube& tube, bool top);
+    /// The contour on plane w that continues `member` past its tube's end, centred as a band to
+    /// it pairs best; none if no loop there overlaps it.
+    std::optional<SliceLoop> endContourAt(const SliceLoop& member, bool hole, double w);
     void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
     void chooseSlices();
