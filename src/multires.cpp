@@ -1748,14 +1748,14 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     // is 5e-5 voxel).
     const bool paper = mOptions.tiler == TilerKind::ContourTree;
     const double voxel = mVolume.smallestVoxel();
-    collapseNeedleEdges(mesh, (paper ? kNeedleEdgeVoxels : 1e-6) * voxel, coarser);
+    collapseNeedleEdges(mesh, (paper ? kNeedleEdgeVoxels : 1e-6) * voxel, coarser, kShortEdgeAspect);
     if (paper) {
         // The needles left, over longer edges where that lowers the worst aspect ratio around:
         // a coarser level's bands and sectors are about twice as long, and so are its needles'
         // short edges for one aspect ratio.
         const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
         collapseNeedleEdges(mesh, std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel, coarser,
-                            kCollapseAspect);
+                            kCollapseAspect, true);
         result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
     }
     return std::move(result);

@@ -361,7 +361,7 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 }
 
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect)
+                              double needleAspect, bool lowerWorst)
 {
     std::vector<glm::dvec3> kept = coarser;
     std::sort(kept.begin(), kept.end(), before);
@@ -401,7 +401,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             return p[x.second] != p[y.second] ? before(p[x.second], p[y.second]) : before(p[x.first], p[y.first]);
         });
         pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-        round = collapsePairs(mesh, pairs, needleAspect > 0.0 ? Guard::Better : Guard::Unfolded);
+        round = collapsePairs(mesh, pairs, lowerWorst ? Guard::Better : Guard::Unfolded);
     }
     return collapsed;
 }

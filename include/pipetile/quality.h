@@ -46,18 +46,22 @@ long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 /// point, a triangle of no area), or two rays meet a contour thinner than a voxel. Every triangle
 /// on such an edge is a needle whatever the diagonals (its aspect ratio is about the distance to
 /// its third corner over the edge's length), so no flip removes it.
-/// With `needleAspect` > 0, only the edges of triangles whose aspect ratio exceeds it are looked
-/// at, and a collapse is made only where it lowers the largest aspect ratio of the triangles
-/// around the vertex that goes. Deterministic; the surface moves by at most the edges' length.
+/// Only the edges of triangles whose aspect ratio exceeds `needleAspect` are looked at; with
+/// `lowerWorst`, a collapse is made only where it lowers the largest aspect ratio of the
+/// triangles around the vertex that goes. Deterministic; the surface moves by at most the edges' length.
 /// @return the number of edges collapsed.
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect = 0.0);
+                              double needleAspect = 0.0, bool lowerWorst = false);
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of
-/// a few voxels far above. Every such edge goes where no triangle turns over; twice this, the
-/// collapses folded the surface (aspect 1e9 on the aorta's top level).
+/// a few voxels far above. Every such edge of a triangle over kShortEdgeAspect goes where no
+/// triangle turns over; twice this, the collapses folded the surface (aspect 1e9 on the aorta's
+/// top level). The bands of smooth tubes lie under kShortEdgeAspect (the phantom's worst is 9)
+/// and stay as tiled: collapsing their short edges near a cap's apex left 44 angles under 5
+/// degrees on the phantom's top level where there were none.
 constexpr double kNeedleEdgeVoxels = 0.1;
+constexpr double kShortEdgeAspect = 10.0;
 
 /// Then the edges of the triangles over kCollapseAspect, up to this many voxels at the top level
 /// (twice as far each level coarser, at most 8 times), go where that lowers the largest aspect
