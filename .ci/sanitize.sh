@@ -17,7 +17,9 @@ export LSAN_OPTIONS="suppressions=$root/.ci/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 
 start=$SECONDS
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPIPETILE_SANITIZE=ON -DPIPETILE_BUILD_TESTS=ON >/dev/null
+werror=OFF; [ -z "${CI:-}" ] || werror=ON # as tools/dev.sh: warnings are errors in CI
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPIPETILE_SANITIZE=ON -DPIPETILE_BUILD_TESTS=ON \
+      -DPIPETILE_WERROR=$werror >/dev/null
 nice cmake --build "$build" -j"$jobs"
 built=$SECONDS
 ctest --test-dir "$build" --output-on-failure -j"$jobs"

@@ -860,12 +860,6 @@ LoopView viewOfPolygon(std::vector<glm::dvec2> polygon, const glm::dvec2& center
     return view;
 }
 
-bool liesWellInside(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point)
-{
-    constexpr double kClearance = 0.25; // pixels: rays from nearer an edge meet it at grazing angles
-    return insidePolygon(polygon, point) && polygonClearance(polygon, point) >= kClearance;
-}
-
 double polygonArea(const std::vector<glm::dvec2>& polygon)
 {
     double area2 = 0.0;
@@ -958,6 +952,20 @@ struct NoField {
     double sample(const glm::dvec2&) const { return 1.0; }
 };
 
+// refineContour's precondition: every ray of `coarse` is a ray of `rays`. castRaysImpl reads the
+// coarse rays' places on the finer grid, so a coarser or foreign set would index out of range.
+void checkHoldsRays(const RaySet& coarse, const RaySet& rays)
+{
+    const long grid = rays.gridCount(), coarseGrid = coarse.gridCount();
+    bool holds = rays.baseRays == coarse.baseRays && grid >= coarseGrid;
+    if (holds && rays.added) {
+        const long step = grid / coarseGrid; // a power of two
+        for (int ray = 0; holds && ray < coarse.count(); ++ray)
+            holds = rays.added->rank[coarse.gridIndex(ray) * step] >= 0;
+    }
+    if (!holds) throw UsageError("refineContour: the rays given do not hold every ray of the coarse contour");
+}
+
 } // namespace
 
 Contour castPolygon(const LoopView& view, const RaySet& rays)
@@ -976,6 +984,7 @@ Contour detail::castRays(const BoundaryLoop& loop, const glm::dvec2& center, con
 Contour refineContour(const Contour& coarse, const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     if (coarse.crossings.empty()) return coarse;
+    checkHoldsRays(coarse.rays, rays);
     return castRaysImpl(view, rays, plane, &coarse);
 }
 
@@ -988,6 +997,7 @@ Contour detail::refineContour(const Contour& coarse, const BoundaryLoop& loop, c
                               const FieldImage& image)
 {
     if (coarse.crossings.empty()) return coarse;
+    checkHoldsRays(coarse.rays, rays);
     return castRaysImpl(viewFrom(loop, coarse.center), rays, image, &coarse);
 }
 

@@ -6,6 +6,8 @@
 #include <pipetile/quality.h>
 #include <pipetile/toroidal.h>
 
+#include "reconstruction_state.h"
+
 #include <glm/geometric.hpp>
 
 #include <tbb/parallel_for.h>
@@ -1765,6 +1767,12 @@ LevelMesh Reconstruction::assemble(const Contours& contours, int level, const st
 {
     return Assembly(*this, contours, level).build(coarser);
 }
+
+Reconstruction::~Reconstruction() = default;
+Reconstruction::Reconstruction(const Reconstruction&) = default;
+Reconstruction::Reconstruction(Reconstruction&&) noexcept = default;
+Reconstruction& Reconstruction::operator=(const Reconstruction&) = default;
+Reconstruction& Reconstruction::operator=(Reconstruction&&) noexcept = default;
 
 Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&reconstruction)
 {

@@ -1,5 +1,6 @@
 #include <pipetile/detail/field_image.h>
 #include <pipetile/contour.h>
+#include <pipetile/error.h>
 
 #include <gtest/gtest.h>
 
@@ -353,6 +354,12 @@ TEST(Contour, AddedRaysSeeAFoldTheLevelsRaysHide)
     EXPECT_EQ(sharedCrossings(c3, scratch3), c3.crossings.size());
     EXPECT_EQ(sharedCrossings(c2, c3), c2.crossings.size());
     EXPECT_EQ(countEdges(c3, EdgeType::Forward) - countEdges(c3, EdgeType::Backward), 17);
+
+    // Rays that miss some of the coarse contour's break refineContour's precondition: refused, not
+    // read out of range. A coarser grid, another base, and a finer grid without the added 33.75°.
+    EXPECT_THROW(refineContour(c2, loops[0], RaySet{8, 1}, image), UsageError);
+    EXPECT_THROW(refineContour(c0, loops[0], RaySet{6, 1}, image), UsageError);
+    EXPECT_THROW(refineContour(c2, loops[0], once.next(), image), UsageError);
 }
 
 TEST(Contour, ViewAnglesAgreeWithAtan2)

@@ -268,6 +268,80 @@ TEST(Graph, TwistingCsAreCappedAtTheirFlatEnds)
     }
 }
 
+namespace {
+
+// Two bars along z in a 16 x 16 x 22 fog, the second shifted across, touching the first only
+// along a voxel edge or at a corner: across the slab (stacked) or along their length (beside).
+struct FogContact {
+    const char* name;
+    glm::ivec2 shift; // of the second bar, in x and y
+    bool stacked;     // the second bar above the first (touching across a slab), or beside it
+    float bars, haze; // the density of the bars, and around them within the block
+    int euler, components;
+};
+
+// Every level of the contact's fog at iso 0.5 against volumeToMesh's isosurface, whose Euler
+// characteristic and components are the contact's.
+void expectFogContactAsVolumeToMesh(const FogContact& contact)
+{
+    SCOPED_TRACE(contact.name);
+    const auto inBar = [](int x, int y, int z, glm::ivec2 at, int z0, int z1) {
+        return x >= at.x && x < at.x + 5 && y >= at.y && y < at.y + 5 && z >= z0 && z <= z1;
+    };
+    test::TempDir dir;
+    const std::string path = dir.path("contact.vdb");
+    test::writeFogVoxelsVdb(path, {16, 16, 22}, [&](int x, int y, int z) {
+        const glm::ivec2 first(2, 2), second = first + contact.shift;
+        const bool bar = contact.stacked ? inBar(x, y, z, first, 2, 10) || inBar(x, y, z, second, 11, 19)
+                                         : inBar(x, y, z, first, 2, 19) || inBar(x, y, z, second, 2, 19);
+        const bool block = x >= 1 && y >= 1 && z >= 1 && x <= 14 && y <= 14 && z <= 20;
+        return bar ? contact.bars : block ? contact.haze : 0.0f;
+    });
+    VolumeOptions read;
+    read.iso = 0.5;
+    const Volume volume = readVolume(path, read);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(reference.euler, contact.euler);
+    EXPECT_EQ(reference.components, contact.components);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    for (int level = 0; level < reconstruction.levelCount(); ++level) {
+        const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
+        EXPECT_EQ(t.euler, reference.euler) << "level " << level;
+        EXPECT_EQ(t.components, reference.components) << "level " << level;
+    }
+}
+
+} // namespace
+
+// Fog voxels that touch only along a voxel edge or at a corner meet at saddles of the trilinear
+// field, which volumeToMesh resolves its own way for fog (the other pair than for a level set;
+// slicer.h, saddleJoins): it parts dense voxels (two bars in empty space: Euler characteristic 4,
+// two components), even in a haze of 0.45 where the saddle face's centre holds 0.725, and joins
+// empty ones (the bars as cavities in a dense block: one void, an outer shell and an inner one:
+// 4 and two components, where parted cavities would give 6 and three). Every level must follow.
+TEST(Graph, FogSaddlesJoinAsVolumeToMeshJoinsThem)
+{
+    for (const FogContact& contact : {FogContact{"edge across the slab", {5, 0}, true, 1.0f, 0.0f, 4, 2},
+                                      FogContact{"corner across the slab", {5, 5}, true, 1.0f, 0.0f, 4, 2},
+                                      FogContact{"edge along the bars", {5, 5}, false, 1.0f, 0.0f, 4, 2},
+                                      FogContact{"in a haze", {5, 0}, true, 1.0f, 0.45f, 4, 2},
+                                      FogContact{"cavities, edge across the slab", {5, 0}, true, 0.0f, 1.0f, 4, 2}})
+        expectFogContactAsVolumeToMesh(contact);
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): the two cavities beside each other, touching along their
+// length, are one hole loop in every slice, and the block's centre lies at their corner. The
+// outer tube's top end then has no apex along the axis through its central point, so that end and
+// the hole's, in the same plane, are taken for a hollow pipe's open rim and joined by an annulus:
+// the void opens, and every level has Euler characteristic 2 and one component.
+TEST(Graph, DISABLED_KnownGapCavitiesTouchingAlongTheirLength)
+{
+    expectFogContactAsVolumeToMesh({"cavities, edge along the bars", {5, 5}, false, 0.0f, 1.0f, 4, 2});
+}
+
 TEST(Graph, JunctionsDoNotDependOnTheThreads)
 {
     // Junctions are tiled after the parallel bands; the mesh must be the same for any threads.

@@ -489,6 +489,20 @@ void writeNoisyFogVdb(const std::string& path, int size, unsigned seed)
     writeGridsVdb(path, {grid});
 }
 
+void writeFogVoxelsVdb(const std::string& path, const glm::ivec3& dims,
+                       const std::function<float(int x, int y, int z)>& density)
+{
+    openvdb::initialize();
+    auto grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("density");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    auto accessor = grid->getAccessor();
+    for (int i = 0; i < dims.x; ++i)
+        for (int j = 0; j < dims.y; ++j)
+            for (int k = 0; k < dims.z; ++k) accessor.setValue(openvdb::Coord(i, j, k), density(i, j, k));
+    writeGridsVdb(path, {grid});
+}
+
 void writeTubeFogVdb(const std::string& path, double hotValue)
 {
     openvdb::initialize();

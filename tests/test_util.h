@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -145,6 +146,9 @@ void writeNoisyFogVdb(const std::string& path, int size, unsigned seed);
 /// A fog "density" tube along z, 0 outside and 1 inside radius 6 (a 24 x 24 x 48 block, linear over
 /// one voxel at the rim); `hotValue` > 0 puts one voxel of that value on the axis at z = 20.
 void writeTubeFogVdb(const std::string& path, double hotValue = 0.0);
+/// A fog "density" over [0, dims), every voxel active, of the value `density` gives it.
+void writeFogVoxelsVdb(const std::string& path, const glm::ivec3& dims,
+                       const std::function<float(int x, int y, int z)>& density);
 /// A level set "spheres": two spheres of radius 5 (voxel 1, half-width 3) centred at (0, 0, zA)
 /// and (0, 0, zB) in index space, nothing in between.
 void writeFarSpheresVdb(const std::string& path, int zA, int zB);

@@ -1,5 +1,6 @@
 // pipetile — contour: central point, ray casting, crossings, chain-code walk, edge classification
 // (paper §3). Geometry is in pixel units of one slice plane; see slicer.h for the (u, v) axes.
+// Functions throw only what their @throw says (besides std::bad_alloc); the others throw nothing.
 #pragma once
 
 #include <glm/common.hpp>
@@ -114,6 +115,7 @@ struct Contour {
 
 /// Walks every boundary loop of the plane, seeded from its east-facing cracks. The loops are in
 /// the plane's pixel units and own their data (the plane may go once this returns).
+/// @throw InternalError if a walk does not close (a broken invariant: a bug).
 std::vector<BoundaryLoop> traceBoundaries(const SlicePlane& plane);
 
 /// A point inside the region a loop encloses, and inside its marching-squares polygon (what rays
@@ -161,9 +163,6 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center);
 /// closed through its hub), given in contour order, counterclockwise around `center`.
 LoopView viewOfPolygon(std::vector<glm::dvec2> polygon, const glm::dvec2& center);
 
-/// Whether a point lies inside a polygon, at least a quarter pixel from its edges.
-bool liesWellInside(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);
-
 /// Signed area of a polygon, pixels^2: > 0 counterclockwise.
 double polygonArea(const std::vector<glm::dvec2>& polygon);
 
@@ -189,21 +188,24 @@ struct RadialProfile {
 };
 RadialProfile radialProfile(const LoopView& view, int directions);
 
-/// Casts `rays` from `center` (pixels) against the loop and classifies the edges. `plane` is only
-/// read during the call. Throws InternalError only (a broken invariant: a bug). The loop's points fix
-/// which crossings exist and their order; each position is then refined to the root of the field
-/// interpolated along the ray, between the neighbouring crossings of the same ray.
+/// Casts `rays` from the view's centre (pixels) against the loop and classifies the edges. `plane`
+/// is only read during the call. The loop's points fix which crossings exist and their order; each
+/// position is then refined to the root of the field interpolated along the ray, between the
+/// neighbouring crossings of the same ray.
 /// Returns an empty contour if the loop does not wind once around the centre.
+/// @throw InternalError if an edge breaks the edge-type rules (a broken invariant: a bug).
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane);
 
 /// Casts `rays` against a polygon of the skeleton (viewOfPolygon): every crossing lies on the
 /// polygon itself (there is no field to refine it against). Empty if it does not wind once.
+/// @throw InternalError as castRays.
 Contour castPolygon(const LoopView& view, const RaySet& rays);
 
 /// Refinement (paper §4.3): the same loop's contour with more rays, `rays` (which must hold every
 /// ray of the coarse contour), or by default the next level's. Only the new rays are cast; the
 /// coarse crossings are kept as they are and the new ones inserted by walk position. Identical to
-/// casting every ray from scratch.
+/// casting every ray from scratch. `view` is the one the coarse contour was cast from.
+/// @throw UsageError if `rays` lacks a ray of the coarse contour; InternalError as castRays.
 Contour refineContour(const Contour& coarse, const LoopView& view, const SlicePlane& plane);
 Contour refineContour(const Contour& coarse, const LoopView& view, const RaySet& rays, const SlicePlane& plane);
 
@@ -220,6 +222,8 @@ std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, doubl
 std::vector<int> strayingChords(const Contour& contour, const LoopView& view, double tolerance);
 
 /// Edge type from two consecutive crossings (DESIGN.md, Edge types): integers only.
+/// @throw InternalError if their rays and kinds fit no edge type: the walk that ordered them is
+///        broken (a bug).
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount);
 
 /// Number of edges of a type; for a contour winding once, #F - #B equals the ray count.

@@ -13,6 +13,9 @@
 // where a loop of each plane simply overlaps one loop of the other (a tube between two slices)
 // skips the labelling. Events are then refined by adding planes at dyadic positions inside the
 // slab (bisect), so that a fork's saddle lies within a fraction of a voxel of a plane.
+//
+// Nothing here throws, besides std::bad_alloc and what buildContourGraph's callbacks throw (passed
+// through). Loops, centres and profiles are in the planes' pixel units; w is index space.
 #pragma once
 
 #include <pipetile/contour.h>

@@ -1,6 +1,7 @@
 // pipetile — quality: what the programs downstream demand of a mesh. Outward vertex normals taken
 // from the field (VFX and 3D printing shade and offset with them), and no needle triangles (CFD
-// meshers such as TetGen refuse slivers): edge flips that raise the smallest angle.
+// meshers such as TetGen refuse slivers): edge flips that raise the smallest angle. Nothing here
+// throws but std::bad_alloc; triangles must index their mesh's vertices (TriangleMesh).
 #pragma once
 
 #include <pipetile/mesh_io.h>

@@ -2,7 +2,8 @@
 //
 // Integer-only: a band is computed from the contours' edge-type strings alone, never from
 // coordinates (paper §4; DESIGN.md, Integer-only claim). src/tiler.cpp is compiled without
-// floating-point registers on x86-64 to prove it.
+// floating-point registers on x86-64 to prove it. Only what is marked @throw throws (besides
+// std::bad_alloc).
 #pragma once
 
 #include <pipetile/contour.h>
@@ -40,7 +41,8 @@ ContourString stringOfEdges(const std::vector<EdgeType>& edges);
 /// `top` caps the last contour of a tube (normals toward +w); otherwise the first (toward -w).
 std::vector<Triangle> tileCap(std::uint32_t m, bool top);
 
-/// Closes a contour of m >= 3 crossings without an apex: a fan from crossing 0, m - 2 triangles.
+/// Closes a contour of m >= 3 crossings without an apex: a fan from crossing 0, m - 2 triangles
+/// (none for m < 3).
 /// For caps whose apex was not found beyond the last slice (a tube ending inside another).
 std::vector<Triangle> tileFlatCap(std::uint32_t m, bool top);
 

@@ -1,0 +1,84 @@
+// pipetile — the state a Reconstruction keeps between its stages: the slices' loops, the tubes
+// and the junctions. Private to the library (not installed): multires.h only declares these types,
+// so that embedding programs neither see nor depend on them, and src/multires.cpp alone uses them.
+#pragma once
+
+#include <pipetile/contour.h>
+#include <pipetile/graph.h>
+#include <pipetile/multires.h>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include <utility>
+#include <vector>
+
+namespace pipetile {
+
+struct Reconstruction::SliceLoop {
+    BoundaryLoop loop;
+    LoopView view;          // from its central point: what every level's rays are cut against
+    RadialProfile profile;  // along profileDirections(): the graph's shape test, slice choice
+    int group = -1;         // its tube's ray group (contours tiled together share their rays); -1:
+                            // in no tube
+    int fromLevel = kNever; // the coarsest level that tiles it; every finer level does too
+};
+struct Reconstruction::TubeEnd {
+    bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
+    bool fan = false;          // fan around the apex: the end contour is star-shaped at the
+                               // finest level (then at every level, as rays nest)
+    glm::dvec3 apexIndex{0.0}; // index-space apex of the cap
+    int junction = -1;         // the fork or merge this end joins (no cap); -1: none
+    int annulus = -1;          // an outer wall's end: the hole tube whose end, in the same
+                               // plane, it joins by an annulus (a hollow pipe's rim); a hole
+                               // tube's end: the outer tube that closes it so. -1: a cap
+};
+struct Reconstruction::Tube {
+    std::vector<std::pair<int, int>> members; // (slice, loop) from first to last slice
+    TubeEnd bottom, top;
+    bool hole = false;
+};
+/// A fork or merge: one contour (`single`) split into arcs by cut points on its polygon, one
+/// arc per contour on the other side (`many`), each arc tiled to its partner. Decided once.
+struct Reconstruction::Junction : JunctionArcs {
+    EventKind kind = EventKind::Fork;      // Fork: `single` lies below `many`; Merge: above;
+                                           // Rim: a wall and its holes in one plane, where
+                                           // their tubes begin (bottom) or end (top)
+    bool top = false;                      // a Rim at the tubes' top ends
+    std::pair<int, int> single{-1, -1};    // (plane, loop)
+    std::pair<int, int> inner{-1, -1};     // a ring's hole inside `single`, or none
+    std::vector<std::pair<int, int>> many; // the partners: arc k goes to many[owner[k]]
+    std::vector<int> chordArcs;            // no hub: the arcs a chord closes (a gap's
+                                           // arc; for a ring every arc, closed from cut
+                                           // k + 1 of the wall to the hole's, and back)
+    // Nodes: the junction's own vertices, the same at every level: the cuts (node k), the
+    // hole's cuts (node n + k), then the hub (where the chords from the cuts meet: their
+    // mean) or the chords' middles, in chordArcs' order. Hub and middles start in the single
+    // contour's plane and move along the axis toward the partners onto the surface (the
+    // crotch), if they get there; a chord never joins two cuts directly, so no cap of the
+    // same contour can share its edge.
+    std::vector<glm::dvec2> nodePoints; // in-plane
+    std::vector<glm::dvec3> nodeIndex;  // index space
+    /// Partner k's side of the junction as one polygon, a composite contour (TOPOLOGY.md):
+    /// its arcs of `single` (and of `inner`) closed through the hub or the chords' middles,
+    /// counterclockwise. Cast with the partner's rays at every level, it is tiled to the
+    /// partner by the same integer band as any two contours.
+    struct Part {
+        struct Corner {
+            int member = -1; // 0: a point of `single`'s polygon, 1: of `inner`'s; -1: neither
+            int point = -1;  // its index in that polygon
+            int node = -1;   // the node it is, or -1
+        };
+        std::vector<Corner> corners;
+        std::vector<glm::dvec2> polygon; // the corners' points
+        LoopView view;                   // from the partner's central point, when the polygon winds once
+                                         // around it (centreParts); else no polygon: the minimum-area tiler
+    };
+    std::vector<Part> parts; // per partner
+};
+
+struct Reconstruction::SliceCounts {
+    int small = 0, unwound = 0;
+};
+
+} // namespace pipetile
