@@ -1063,10 +1063,12 @@ LevelMesh Reconstruction::buildLevel(int level) const
 {
     if (level < 0 || level >= mOptions.levels)
         throw UsageError("level " + std::to_string(level) + " is outside 0.." + std::to_string(mOptions.levels - 1));
+    // The level below decides which vertices must stay (collapseNeedleEdges); it is not timed.
+    const std::vector<glm::dvec3> coarser = level > 0 ? buildLevel(level - 1).mesh.vertices : std::vector<glm::dvec3>{};
     const Clock::time_point start = Clock::now();
     const Contours contours = castLevel(level);
     const double casting = secondsSince(start);
-    LevelMesh result = assemble(contours, level);
+    LevelMesh result = assemble(contours, level, coarser);
     result.castingSeconds = casting;
     result.seconds = secondsSince(start);
     return result;
@@ -1176,7 +1178,7 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
 class Reconstruction::Assembly {
 public:
     Assembly(const Reconstruction& reconstruction, const Contours& contours, int level);
-    LevelMesh build();
+    LevelMesh build(const std::vector<glm::dvec3>& coarser);
 
 private:
     // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
@@ -1763,7 +1765,7 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
     mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
 }
 
-LevelMesh Reconstruction::Assembly::build()
+LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser)
 {
     const Clock::time_point tiling = Clock::now();
     buildTrees();
@@ -1771,18 +1773,29 @@ LevelMesh Reconstruction::Assembly::build()
     result.tilingSeconds = secondsSince(tiling);
     emitBandsAndCaps();
     for (std::size_t j = 0; j < mJunctions.size(); ++j) tileJunction(j);
-    // A junction part's crossing can fall on a vertex of the single contour (collapseShortEdges);
-    // a millionth of a voxel is far below any edge the rays make (the aorta's shortest is 5e-5
-    // voxel) and far above rounding.
-    collapseShortEdges(mesh, 1e-6 * mVolume.smallestVoxel());
-    // The baselines stay as their papers give them (the optimal tiler's is the least area).
-    if (mOptions.tiler == TilerKind::ContourTree) result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+    // Vertices a hair apart make needles (collapseNeedleEdges), or triangles of no area where a
+    // junction part's crossing falls on a vertex of the single contour: all but the coarser
+    // level's go. The baselines stay as their papers give them (the optimal tiler's is the least
+    // area): only copies of one point go, a millionth of a voxel apart (the aorta's shortest edge
+    // is 5e-5 voxel).
+    const bool paper = mOptions.tiler == TilerKind::ContourTree;
+    const double voxel = mVolume.smallestVoxel();
+    collapseNeedleEdges(mesh, (paper ? kNeedleEdgeVoxels : 1e-6) * voxel, coarser, kShortEdgeAspect);
+    if (paper) {
+        // The needles left, over longer edges where that lowers the worst aspect ratio around:
+        // a coarser level's bands and sectors are about twice as long, and so are its needles'
+        // short edges for one aspect ratio.
+        const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
+        collapseNeedleEdges(mesh, std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel, coarser,
+                            kCollapseAspect, true);
+        result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+    }
     return std::move(result);
 }
 
-LevelMesh Reconstruction::assemble(const Contours& contours, int level) const
+LevelMesh Reconstruction::assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const
 {
-    return Assembly(*this, contours, level).build();
+    return Assembly(*this, contours, level).build(coarser);
 }
 
 Reconstruction::~Reconstruction() = default;
@@ -1796,7 +1809,7 @@ Refinement::Refinement(const Reconstruction& reconstruction) : mReconstruction(&
     const Clock::time_point start = Clock::now();
     mContours = reconstruction.castLevel(0);
     const double casting = secondsSince(start);
-    mMesh = reconstruction.assemble(mContours, 0);
+    mMesh = reconstruction.assemble(mContours, 0, {});
     mMesh.castingSeconds = casting;
     mMesh.seconds = secondsSince(start);
 }
@@ -1810,7 +1823,7 @@ const LevelMesh& Refinement::refine()
     mContours = mReconstruction->refineContours(mContours, mLevel + 1);
     const double casting = secondsSince(start);
     ++mLevel;
-    mMesh = mReconstruction->assemble(mContours, mLevel);
+    mMesh = mReconstruction->assemble(mContours, mLevel, mMesh.mesh.vertices);
     mMesh.castingSeconds = casting;
     mMesh.seconds = secondsSince(start);
     return mMesh;

@@ -237,37 +237,52 @@ std::uint32_t rootOf(std::vector<std::uint32_t>& parent, std::uint32_t v)
     return v;
 }
 
-} // namespace
-
-std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh)
+// Lexicographic order of positions (x, then y, then z): the same whichever level holds them.
+bool before(const glm::dvec3& a, const glm::dvec3& b)
 {
-    std::vector<glm::dvec3> normals(mesh.vertices.size());
-    std::vector<glm::dvec3> faceSums; // built on the first vertex that needs it
-    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-        normals[i] = unitOrZero(volume.fieldGradient(mesh.vertices[i]));
-        if (normals[i] != glm::dvec3(0.0)) continue;
-        if (faceSums.empty()) faceSums = faceNormalSums(mesh);
-        normals[i] = unitOrZero(faceSums[i]);
-    }
-    return normals;
+    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
 }
 
-long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
+// Whether moving corner b of the triangles `around` it to a (those on edge a-b go) turns none of
+// them over, which would fold the surface, and with Guard::Better whether it also lowers the
+// largest aspect ratio among them.
+enum class Guard { Unfolded, Better };
+
+bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>& around, const std::vector<bool>& gone,
+                      std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, Guard guard)
 {
     const std::vector<glm::dvec3>& p = mesh.vertices;
-    const double tolerance2 = tolerance * tolerance;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> shortEdges;
-    for (const Triangle& t : mesh.triangles)
-        for (int k = 0; k < 3; ++k) {
-            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-            if (a < b && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2) shortEdges.push_back({a, b});
-        }
-    if (shortEdges.empty()) return 0; // the common case costs one pass over the triangles
-    std::sort(shortEdges.begin(), shortEdges.end());
+    double worstBefore = 0.0, worstAfter = 0.0;
+    for (const std::uint32_t f : around) {
+        if (gone[f]) continue;
+        Triangle t = mesh.triangles[f];
+        for (std::uint32_t& w : t) w = rootOf(parent, w);
+        if (!holds(t, b)) continue;
+        worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        if (holds(t, a)) continue;
+        const glm::dvec3 before = faceNormal(mesh, t);
+        for (std::uint32_t& w : t) w = w == b ? a : w;
+        // A triangle of no area has no side to turn over (three copies of one point: the twisting
+        // C's junctions leave 198 such triangles on each level unless they go).
+        if (before != glm::dvec3(0.0) && !(glm::dot(faceNormal(mesh, t), before) > 0.0)) return false;
+        worstAfter = std::max(worstAfter, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+    }
+    return guard != Guard::Better || worstAfter < worstBefore;
+}
 
-    // The triangles around the short edges' ends; a collapse moves the upper end's into the set.
+// Collapses each pair's second vertex into (the vertex that now stands for) its first, in order,
+// where the collapse keeps a closed manifold so and passes `guard` (collapseImproves); a vertex
+// already collapsed stays where it went.
+// The vertices left keep their order.
+long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
+                        Guard guard)
+{
+    if (pairs.empty()) return 0; // the common case costs one pass over the triangles
+    const std::vector<glm::dvec3>& p = mesh.vertices;
+
+    // The triangles around the pairs' vertices; a collapse moves the gone end's into the kept one's.
     std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> around;
-    for (const auto& [a, b] : shortEdges) around[a], around[b];
+    for (const auto& [a, b] : pairs) around[a], around[b];
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
         for (const std::uint32_t v : mesh.triangles[f]) {
             const auto at = around.find(v);
@@ -277,9 +292,9 @@ long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
     for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
     std::vector<bool> gone(mesh.triangles.size(), false);
     long long collapsed = 0;
-    for (const auto& [u, v] : shortEdges) {
-        const std::uint32_t a = rootOf(parent, u), b = rootOf(parent, v);
-        if (a == b) continue;
+    for (const auto& [keep, go] : pairs) {
+        const std::uint32_t a = rootOf(parent, keep), b = go;
+        if (a == b || parent[b] != b) continue;
         // Link condition: the neighbours a and b share are exactly the third corners of the (two)
         // triangles on the edge; otherwise the collapse would pinch the surface.
         std::vector<std::uint32_t> on, nearA, nearB, opposite;
@@ -300,6 +315,7 @@ long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
         std::vector<std::uint32_t> shared;
         std::set_intersection(nearA.begin(), nearA.end(), nearB.begin(), nearB.end(), std::back_inserter(shared));
         if (on.size() != 2 || opposite.size() != 2 || shared != opposite) continue;
+        if (!collapseImproves(mesh, around[b], gone, parent, a, b, guard)) continue;
         for (const std::uint32_t f : on) gone[f] = true;
         parent[b] = a;
         std::vector<std::uint32_t>& into = around[a];
@@ -328,6 +344,67 @@ long long collapseShortEdges(TriangleMesh& mesh, double tolerance)
     }
     mesh.vertices = std::move(vertices);
     mesh.triangles = std::move(kept);
+    return collapsed;
+}
+
+} // namespace
+
+std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh)
+{
+    std::vector<glm::dvec3> normals(mesh.vertices.size());
+    std::vector<glm::dvec3> faceSums; // built on the first vertex that needs it
+    for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+        normals[i] = unitOrZero(volume.fieldGradient(mesh.vertices[i]));
+        if (normals[i] != glm::dvec3(0.0)) continue;
+        if (faceSums.empty()) faceSums = faceNormalSums(mesh);
+        normals[i] = unitOrZero(faceSums[i]);
+    }
+    return normals;
+}
+
+long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
+                              double needleAspect, bool lowerWorst)
+{
+    std::vector<glm::dvec3> kept = coarser;
+    std::sort(kept.begin(), kept.end(), before);
+    // How many copies of a point the coarser level has: two constructions can put a vertex on
+    // another bit for bit (a junction part's crossing on the single contour's), and each copy
+    // that level has must stay.
+    const auto copies = [&](const glm::dvec3& q) {
+        const auto [from, to] = std::equal_range(kept.begin(), kept.end(), q, before);
+        return to - from;
+    };
+    const double tolerance2 = tolerance * tolerance;
+    long long collapsed = 0;
+    // A collapse can make a new short edge (between two vertices that each kept a third between
+    // them); rounds go on until none is left that may go.
+    for (long long round = 1; round > 0; collapsed += round) {
+        const std::vector<glm::dvec3>& p = mesh.vertices;
+        std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs; // (kept, gone)
+        for (const Triangle& t : mesh.triangles) {
+            if (needleAspect > 0.0 && !(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > needleAspect)) continue;
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+                // Each edge once (from either triangle on it when only needles count).
+                if (!((a < b || needleAspect > 0.0) && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2)) continue;
+                bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
+                if (keepA && keepB) {
+                    if (p[a] != p[b] || copies(p[a]) > 1) continue;
+                    keepB = false; // one copy stays
+                }
+                // A vertex of the coarser level stays; between two new ones, the first by position (by id
+                // between copies of one point, which both ways of building a level number alike).
+                const bool first = before(p[a], p[b]) || (p[a] == p[b] && a < b);
+                pairs.push_back(keepA || (!keepB && first) ? std::pair{a, b} : std::pair{b, a});
+            }
+        }
+        // By position, not id: the same collapses whichever way the level was built.
+        std::sort(pairs.begin(), pairs.end(), [&](const auto& x, const auto& y) {
+            return p[x.second] != p[y.second] ? before(p[x.second], p[y.second]) : before(p[x.first], p[y.first]);
+        });
+        pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+        round = collapsePairs(mesh, pairs, lowerWorst ? Guard::Better : Guard::Unfolded);
+    }
     return collapsed;
 }
 

@@ -152,38 +152,90 @@ TEST(Quality, FlipsLeaveThePhantomsClosedAndFreeOfNeedles)
     expectNoNeedles({"straight", "hollow", "torus-flat", "helix", "two-tubes"});
 }
 
-TEST(Quality, DISABLED_KnownGapNoNeedlesOnBranchesAndFolds)
+TEST(Quality, NoNeedlesOnBranchesAndFolds)
 {
-    // Known gap (registered as an expected failure in CMakeLists.txt). ybranch: aspect 234 at
-    // level 3, at its junction (its triangles of no area are gone: JunctionsLeaveNoDegenerate-
-    // Triangles). bean (C-shaped sections that rays cross three times): aspect 115, 137 and 254
-    // at levels 0, 2 and 3; not yet diagnosed.
-    expectNoNeedles({"ybranch", "bean"});
+    // Junctions (ybranch, tree, trifurcation) and C-shaped sections that rays cross three times
+    // (bean). Their needles had an edge under 0.3 voxel in a slice plane (a junction part's
+    // crossing next to the single contour's own: aspect up to 4081 on the tree's top level); the
+    // collapses take it out (collapseNeedleEdges).
+    expectNoNeedles({"ybranch", "tree", "trifurcation", "bean"});
 }
+
+TEST(Quality, DISABLED_KnownGapNoNeedlesOnAHollowY)
+{
+    // Known gap (registered as an expected failure in CMakeLists.txt). The hollow Y's top level
+    // keeps two triangles of aspect 104, mirror images: an edge of 0.331 voxel in the plane at
+    // z = 112.75 whose third corner lies 5.6 voxels across, in the plane an eighth of a voxel
+    // above (an event slab halved three times, where the crescent at the rim shifts). The edge is
+    // just over the top level's reach (kNeedleReachVoxels, 0.3), and no flip takes it out.
+    expectNoNeedles({"hollow-y"});
+}
+
+namespace {
+
+// The octahedron, and one whose edge (0, 1) is split by vertex 6 at `split`.
+const std::vector<Triangle> kOctahedron = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1},
+                                           {5, 2, 1}, {5, 3, 2}, {5, 4, 3}, {5, 1, 4}};
+
+TriangleMesh splitOctahedron(const glm::dvec3& split)
+{
+    TriangleMesh mesh;
+    mesh.vertices = {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}, split};
+    mesh.triangles = {{0, 6, 2}, {6, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 6},
+                      {6, 4, 1}, {5, 2, 1}, {5, 3, 2}, {5, 4, 3}, {5, 1, 4}};
+    return mesh;
+}
+
+std::vector<Triangle> canonical(std::vector<Triangle> triangles)
+{
+    for (Triangle& t : triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    std::sort(triangles.begin(), triangles.end());
+    return triangles;
+}
+
+} // namespace
 
 TEST(Quality, ACoincidentVertexOnAnEdgeIsCollapsed)
 {
-    // An octahedron whose edge (0, 1) is split by vertex 6 lying on vertex 0, as a junction part's
-    // crossing fell on the single contour's: two triangles of no area. The collapse removes them
-    // and vertex 6, and gives back the octahedron itself (Euler 2 throughout).
-    TriangleMesh mesh;
-    mesh.vertices = {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
-    const std::vector<Triangle> octahedron = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 1},
-                                              {5, 2, 1}, {5, 3, 2}, {5, 4, 3}, {5, 1, 4}};
-    mesh.vertices.push_back(mesh.vertices[0]);
-    mesh.triangles = {{0, 6, 2}, {6, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 6},
-                      {6, 4, 1}, {5, 2, 1}, {5, 3, 2}, {5, 4, 3}, {5, 1, 4}};
+    // Vertex 6 lies on vertex 0, as a junction part's crossing fell on the single contour's: two
+    // triangles of no area. The collapse removes them and vertex 6 (the higher-numbered copy),
+    // and gives back the octahedron itself (Euler 2 throughout).
+    TriangleMesh mesh = splitOctahedron({0, 0, 1});
     EXPECT_EQ(measureQuality(mesh).degenerate, 2);
-    EXPECT_EQ(collapseShortEdges(mesh, 1e-9), 1);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 1e-9, {}), 1);
     EXPECT_EQ(mesh.vertices.size(), 6u);
-    std::vector<Triangle> got = mesh.triangles, want = octahedron;
-    for (std::vector<Triangle>* list : {&got, &want}) {
-        for (Triangle& t : *list) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
-        std::sort(list->begin(), list->end());
-    }
-    EXPECT_EQ(got, want);
+    EXPECT_EQ(canonical(mesh.triangles), canonical(kOctahedron));
     // Nothing shorter than the tolerance is left: a second pass collapses nothing.
-    EXPECT_EQ(collapseShortEdges(mesh, 1e-9), 0);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 1e-9, {}), 0);
+}
+
+TEST(Quality, ANeedleCollapseKeepsTheLevelBelowsVertices)
+{
+    // Vertex 6 lies 0.01 from vertex 0 along edge (0, 1): the triangles on (0, 6) are needles.
+    const glm::dvec3 top(0, 0, 1), split = glm::mix(top, glm::dvec3(1, 0, 0), 0.01 / std::sqrt(2.0));
+    const std::vector<glm::dvec3> rim = {{1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
+    // Both new: the one later by position (x, then y, then z) goes, vertex 6 (x = 0.007 > 0).
+    TriangleMesh mesh = splitOctahedron(split);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.02, {}), 1);
+    std::vector<glm::dvec3> want = {top};
+    want.insert(want.end(), rim.begin(), rim.end());
+    EXPECT_EQ(mesh.vertices, want);
+    EXPECT_EQ(canonical(mesh.triangles), canonical(kOctahedron));
+    // Vertex 6 in the level below: it stays and vertex 0 goes, leaving the octahedron with its
+    // top moved 0.01 to vertex 6.
+    mesh = splitOctahedron(split);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.02, {split}), 1);
+    want = rim;
+    want.push_back(split);
+    EXPECT_EQ(mesh.vertices, want);
+    EXPECT_EQ(measureQuality(mesh).degenerate, 0);
+    EXPECT_LT(measureQuality(mesh).largestAspect, 2.0);
+    // Both in the level below: both stay, needles and all.
+    mesh = splitOctahedron(split);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.02, {top, split}), 0);
+    EXPECT_EQ(mesh.vertices.size(), 7u);
+    // An edge longer than the tolerance stays.
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.005, {}), 0);
 }
 
 TEST(Quality, JunctionsLeaveNoDegenerateTriangles)
@@ -206,26 +258,44 @@ TEST(Quality, FlippingAgainChangesNothing)
     EXPECT_EQ(level.mesh.triangles, before);
 }
 
-TEST(Quality, DISABLED_KnownGapNoNeedlesOnTheRealData)
+namespace {
+
+// Every level of a real volume (4 levels): no triangle of no area, none over aspect 100.
+void expectNoNeedlesOnRealData(const char* file)
 {
-    // Known gap (registered as an expected failure in CMakeLists.txt). Flips cannot reach aspect
-    // <= 100 on two real volumes, because the needles sit on contour edges, which no flip may
-    // remove: the vmtk aorta's contours hold crossings 0.001 mm apart (rays meeting the boundary
-    // at nearly one point, next to the central point), and the ChestImagingPlatform cone's tip
-    // ends in an end contour of radius 0.03 voxel whose 64 edges of 0.002 voxel face a slice 0.9
-    // voxel away (aspect 413 at level 3; at level 0 the band spans the 304 voxels the slice choice
-    // skips, aspect 1.4e4). Fixing them changes vertices (contours), not diagonals.
-    for (const char* file :
-         {"vmtk_aorta_ls.vdb", "cip_cone_vessel_density.vdb", "ts_common_carotid_artery_left_ls.vdb"}) {
-        SCOPED_TRACE(file);
-        const Volume volume = readVolume(test::realData(file));
-        MeshOptions options;
-        options.levels = 4;
-        const Reconstruction reconstruction(volume, options);
-        for (int level = 0; level < reconstruction.levelCount(); ++level) {
-            const TriangleQuality q = measureQuality(reconstruction.buildLevel(level).mesh);
-            EXPECT_EQ(q.degenerate, 0) << "level " << level;
-            EXPECT_LE(q.largestAspect, 100.0) << "level " << level;
-        }
+    SCOPED_TRACE(file);
+    const Volume volume = readVolume(test::realData(file));
+    MeshOptions options;
+    options.levels = 4;
+    const Reconstruction reconstruction(volume, options);
+    Refinement refinement(reconstruction);
+    while (true) {
+        const TriangleQuality q = measureQuality(refinement.mesh().mesh);
+        EXPECT_EQ(q.degenerate, 0) << "level " << refinement.level();
+        EXPECT_LE(q.largestAspect, 100.0) << "level " << refinement.level();
+        if (!refinement.canRefine()) break;
+        refinement.refine();
     }
+}
+
+} // namespace
+
+TEST(Quality, NoNeedlesOnTheRealData)
+{
+    // The vmtk aorta's contours held crossings 0.001 mm apart (rays meeting the boundary at
+    // nearly one point, next to the central point), and its junction parts crossings next to the
+    // single contour's: aspect up to 23870. The collapses take those vertices out.
+    expectNoNeedlesOnRealData("vmtk_aorta_ls.vdb");
+    expectNoNeedlesOnRealData("ts_common_carotid_artery_left_ls.vdb");
+}
+
+TEST(Quality, DISABLED_KnownGapNoNeedlesAtAConesTip)
+{
+    // Known gap (registered as an expected failure in CMakeLists.txt). The ChestImagingPlatform
+    // cone's tip ends in an end contour of radius 0.03 voxel; at level 0 its band reaches the
+    // next contour the slice choice keeps, 304 voxels away: edges of 0.02 voxel facing 304
+    // voxels, aspect 1.4e4. Its vertices cannot go: collapsing the contour to a point would
+    // pinch the tube (the link condition refuses), and a flip keeps the edge. Levels 1 to 3 stay
+    // under 46.
+    expectNoNeedlesOnRealData("cip_cone_vessel_density.vdb");
 }

@@ -187,7 +187,9 @@ private:
     /// from it, so nesting holds.
     void addFoldRays(Contours& contours, int level) const;
     /// The level's mesh from its contours: bands, caps and junctions (Assembly, multires.cpp).
-    LevelMesh assemble(const Contours& contours, int level) const;
+    /// The vertices of `coarser` (the level below's, empty for level 0) stay (quality.h,
+    /// collapseNeedleEdges).
+    LevelMesh assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const;
     class Assembly;
 
     static constexpr int kNever = 1 << 30; // a level no reconstruction reaches (levels <= 16)

@@ -33,16 +33,44 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 /// @return the number of flips made.
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 
-/// Collapses each edge no longer than `tolerance` (world units) into its lower-numbered end, where
-/// the collapse keeps a closed manifold so (the edge has two triangles, and its ends share no
-/// neighbour but those triangles' third corners): the two triangles go, and so does the other end,
-/// after which the vertices are renumbered in their order. Two constructions can put a vertex at
-/// one point up to rounding: a junction part's ray, cast from the partner's central point, meets
-/// the single contour's polygon where that contour's own ray does when both centres lie on one
-/// line with the point; each gave a triangle of no area. Positions are not moved, so levels still
-/// nest; linear in the mesh, deterministic.
+/// Removes the vertices that make needles. Each end of an edge no longer than `tolerance` (world
+/// units) goes into the other end, the edge's two triangles with it, unless it is a vertex of the
+/// level below (`coarser`: its positions, one entry per copy; empty for level 0). So each level's
+/// vertices stay a subset of the next's whatever this level removes: a vertex the level below
+/// kept, this level keeps. Between two new ends, the one later by position (x, then y, then z)
+/// goes; between copies of one point, the higher-numbered. A collapse is made where it keeps a
+/// closed manifold so (the edge has two triangles, and its ends share no neighbour but their
+/// third corners) and turns no triangle over; rounds go on until none is left to make. The
+/// vertices left keep their order and positions.
+/// Such edges lie in slice planes: a junction part's ray, cast from the partner's central point,
+/// meets the single contour's polygon next to where that contour's own ray does (or at the same
+/// point, a triangle of no area), or two rays meet a contour thinner than a voxel. Every triangle
+/// on such an edge is a needle whatever the diagonals (its aspect ratio is about the distance to
+/// its third corner over the edge's length), so no flip removes it.
+/// Only the edges of triangles whose aspect ratio exceeds `needleAspect` are looked at; with
+/// `lowerWorst`, a collapse is made only where it lowers the largest aspect ratio of the
+/// triangles around the vertex that goes. Deterministic; the surface moves by at most the edges' length.
 /// @return the number of edges collapsed.
-long long collapseShortEdges(TriangleMesh& mesh, double tolerance);
+long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
+                              double needleAspect = 0.0, bool lowerWorst = false);
+
+/// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
+/// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of
+/// a few voxels far above. Every such edge of a triangle over kShortEdgeAspect goes where no
+/// triangle turns over; twice this, the collapses folded the surface (aspect 1e9 on the aorta's
+/// top level). The bands of smooth tubes lie under kShortEdgeAspect (the phantom's worst is 9)
+/// and stay as tiled: collapsing their short edges near a cap's apex left 44 angles under 5
+/// degrees on the phantom's top level where there were none.
+constexpr double kNeedleEdgeVoxels = 0.1;
+constexpr double kShortEdgeAspect = 10.0;
+
+/// Then the edges of the triangles over kCollapseAspect, up to this many voxels at the top level
+/// (twice as far each level coarser, at most 8 times), go where that lowers the largest aspect
+/// ratio around (the hollow Y's and the bean's are 0.1 to 0.3 voxel). Half the bound of issue 17,
+/// so that a collapse also takes the triangles next to a needle down with it. The top level stays
+/// within the voxel of the isosurface it was (hollow Y 0.71, bean 0.53 voxel).
+constexpr double kNeedleReachVoxels = 0.3;
+constexpr double kCollapseAspect = 50.0;
 
 /// Triangles with an angle below this many degrees are counted as needles in reports.
 constexpr double kNeedleDegrees = 5.0;
