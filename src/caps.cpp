@@ -11,27 +11,42 @@
 
 namespace pipetile {
 
+namespace {
+
+constexpr double kApexStep = 0.25; // voxels between the march's samples
+
+// The march of findApex: the first sample k (at k quarter voxels from the plane) outside the
+// region, 0 if `point` is not in it on the plane, -1 if it goes on past `reach`.
+int apexStep(const SlicePlane& plane, const glm::dvec2& point, double direction, double reach, double sign)
+{
+    const double w0 = plane.w();
+    if (!(sign * plane.sampleAt(point, w0) < 0.0)) return 0;
+    for (int k = 1; k * kApexStep <= reach + 1e-9; ++k)
+        if (!(sign * plane.sampleAt(point, w0 + direction * k * kApexStep) < 0.0)) return k;
+    return -1;
+}
+
+// The bisection of findApex: where, between samples k - 1 (inside) and k (outside), the region ends.
+double apexBetween(const SlicePlane& plane, const glm::dvec2& point, double direction, int k, double sign)
+{
+    const double w0 = plane.w();
+    double lo = (k - 1) * kApexStep, hi = k * kApexStep;
+    for (int i = 0; i < 40; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (sign * plane.sampleAt(point, w0 + direction * mid) < 0.0 ? lo : hi) = mid;
+    }
+    return w0 + direction * 0.5 * (lo + hi);
+}
+
+} // namespace
+
 bool findApex(const SlicePlane& plane, const glm::dvec2& center, double direction, double reach, double& wApex,
               double sign)
 {
-    constexpr double kStep = 0.25;
-    const double w0 = plane.w();
-    auto inRegion = [&](double w) { return sign * plane.sampleAt(center, w) < 0.0; };
-    double inT = 0.0;
-    if (!inRegion(w0)) return false;
-    for (double t = kStep; t <= reach + 1e-9; t += kStep) {
-        if (!inRegion(w0 + direction * t)) {
-            double lo = inT, hi = t;
-            for (int i = 0; i < 40; ++i) {
-                const double mid = 0.5 * (lo + hi);
-                (inRegion(w0 + direction * mid) ? lo : hi) = mid;
-            }
-            wApex = w0 + direction * 0.5 * (lo + hi);
-            return true;
-        }
-        inT = t;
-    }
-    return false;
+    const int k = apexStep(plane, center, direction, reach, sign);
+    if (k <= 0) return false;
+    wApex = apexBetween(plane, center, direction, k, sign);
+    return true;
 }
 
 bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double direction, double reach, double& w,
@@ -47,17 +62,26 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
     // near enough to catch a twisted end's corner (a voxel or two wide).
     constexpr double kProbesPerSide = 16.0;
     const double step = std::max(1.0, std::ceil(std::max(hi.x - lo.x, hi.y - lo.y) / kProbesPerSide));
-    bool found = false;
+    // Every probe marches; only those whose march went farthest are bisected, as a probe that
+    // left the region a sample sooner ends at least that much nearer.
+    int farthest = 0;
+    std::vector<glm::dvec2> leaders;
     for (double y = std::floor(lo.y) + 0.5; y < hi.y; y += step) {
         for (double x = std::floor(lo.x) + 0.5; x < hi.x; x += step) {
             const glm::dvec2 probe(x, y);
-            double wProbe = plane.w();
-            if (!encloses(loop, probe) || !findApex(plane, probe, direction, reach, wProbe, sign)) continue;
-            if (!found || direction * (wProbe - w) > 0.0) w = wProbe;
-            found = true;
+            if (!encloses(loop, probe)) continue;
+            const int k = apexStep(plane, probe, direction, reach, sign);
+            if (k <= 0 || k < farthest) continue;
+            if (k > farthest) leaders.clear();
+            farthest = k;
+            leaders.push_back(probe);
         }
     }
-    return found;
+    for (std::size_t i = 0; i < leaders.size(); ++i) {
+        const double wProbe = apexBetween(plane, leaders[i], direction, farthest, sign);
+        if (i == 0 || direction * (wProbe - w) > 0.0) w = wProbe;
+    }
+    return !leaders.empty();
 }
 
 std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)

@@ -291,12 +291,31 @@ double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2
     double nearest = std::numeric_limits<double>::infinity();
     const std::size_t m = polygon.size();
     for (std::size_t i = 0; i < m; ++i) {
-        const glm::dvec2 a = polygon[i], ab = polygon[(i + 1) % m] - a;
+        const glm::dvec2 a = polygon[i], ab = polygon[i + 1 < m ? i + 1 : 0] - a;
         const double len2 = glm::dot(ab, ab);
         const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
-        nearest = std::min(nearest, glm::length(a + t * ab - p));
+        const glm::dvec2 d = a + t * ab - p;
+        nearest = std::min(nearest, glm::dot(d, d)); // squared: one root at the end
     }
-    return nearest;
+    return std::sqrt(nearest);
+}
+
+bool clearOfPolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p, double clearance)
+{
+    const std::size_t m = polygon.size();
+    for (std::size_t i = 0; i < m; ++i) {
+        const glm::dvec2 a = polygon[i], b = polygon[i + 1 < m ? i + 1 : 0];
+        // Most segments of a section lie far off: their box alone shows it, with no division.
+        if (p.x < std::min(a.x, b.x) - clearance || p.x > std::max(a.x, b.x) + clearance ||
+            p.y < std::min(a.y, b.y) - clearance || p.y > std::max(a.y, b.y) + clearance)
+            continue;
+        const glm::dvec2 ab = b - a;
+        const double len2 = glm::dot(ab, ab);
+        const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+        const glm::dvec2 d = a + t * ab - p;
+        if (glm::length(d) < clearance) return false;
+    }
+    return true;
 }
 
 double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& p)
@@ -803,7 +822,7 @@ namespace {
 bool offPolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point)
 {
     constexpr double kRounding = 1e-9;
-    return polygonClearance(polygon, point) > kRounding;
+    return clearOfPolygon(polygon, point, kRounding);
 }
 
 } // namespace

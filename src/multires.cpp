@@ -653,15 +653,14 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     // A followed centre must stay clear of the boundary (by a pixel, or as far as the centroid
     // is), or its rays would crowd one side of the section.
     const bool centroidIn = centroidInside(loop.loop);
-    const double centroidClearance = centroidIn ? boundaryClearance(loop.loop, loop.loop.centroid) : 0.0;
-    if (liesInside(loop.loop, candidate) &&
-        boundaryClearance(loop.loop, candidate) >= (centroidIn ? std::min(1.0, centroidClearance) : 1.0))
-        return candidate;
+    const bool centroidClear = centroidIn && clearOfPolygon(loop.loop.points, loop.loop.centroid, 1.0);
+    const double clearance = centroidIn && !centroidClear ? boundaryClearance(loop.loop, loop.loop.centroid) : 1.0;
+    if (liesInside(loop.loop, candidate) && clearOfPolygon(loop.loop.points, candidate, clearance)) return candidate;
     // Otherwise the centroid if it is a pixel clear; if not (it lies outside a C, or hugs the inner
     // edge of a crescent at a pipe's open rim, where a jump to it turned the crescent's tips
     // against each other's rays, 1.13 voxels off), the clear pixel nearest where the centre would
     // have gone.
-    return centroidIn && centroidClearance >= 1.0 ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
+    return centroidClear ? loop.loop.centroid : clearPixelNear(loop.loop, candidate);
 }
 
 std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(const SliceLoop& member, bool hole, double w)
@@ -726,9 +725,11 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // Without one (the axis starts at a pinch, or in a hole), a hole's end looks further at once:
     // if its outside ends (a cavity's lid) it is no pipe's opening; a wall's end only if no rim
     // joins it (probeAnyway), as a pipe's wall around its opening reaches past the plane too.
-    if (!end.hasApex &&
-        !((tube.hole || probeAnyway) && farthestReach(plane, member.loop, direction, reach, wApex, sign)))
-        return false;
+    double wFar = wApex;
+    const bool reaches =
+        (end.hasApex || tube.hole || probeAnyway) && farthestReach(plane, member.loop, direction, reach, wFar, sign);
+    if (!end.hasApex && !reaches) return false;
+    if (!end.hasApex) wApex = wFar;
     end.hasApex = true;
     end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
     // A cap leaves out what the region reaches past its apex. On a rounded end that is little
@@ -736,9 +737,7 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // (the C twisting 15 degrees per voxel: its top apex 0.33 voxel past the last slice, its flat
     // end 1.0, capped at the slice without an end contour).
     constexpr double kCapSlack = 0.5;
-    double wFar = wApex, wTarget = wApex;
-    if (farthestReach(plane, member.loop, direction, reach, wFar, sign) && direction * (wFar - wApex) > kCapSlack)
-        wTarget = wFar;
+    const double wTarget = reaches && direction * (wFar - wApex) > kCapSlack ? wFar : wApex;
     // The end band is held to the bands' rule (correspond): halved, down to half a voxel, while
     // it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
     // degrees of turn in one step, was 1.07 voxels off).

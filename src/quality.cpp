@@ -365,12 +365,15 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               double needleAspect, bool lowerWorst)
 {
-    std::vector<glm::dvec3> kept = coarser;
-    std::sort(kept.begin(), kept.end(), before);
     // How many copies of a point the coarser level has: two constructions can put a vertex on
     // another bit for bit (a junction part's crossing on the single contour's), and each copy
-    // that level has must stay.
+    // that level has must stay. Sorted at the first short edge: most levels have none.
+    std::vector<glm::dvec3> kept;
     const auto copies = [&](const glm::dvec3& q) {
+        if (kept.empty() && !coarser.empty()) {
+            kept = coarser;
+            std::sort(kept.begin(), kept.end(), before);
+        }
         const auto [from, to] = std::equal_range(kept.begin(), kept.end(), q, before);
         return to - from;
     };
@@ -381,12 +384,17 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
     for (long long round = 1; round > 0; collapsed += round) {
         const std::vector<glm::dvec3>& p = mesh.vertices;
         std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs; // (kept, gone)
+        const auto shortEdge = [&](std::uint32_t a, std::uint32_t b) {
+            return glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2;
+        };
         for (const Triangle& t : mesh.triangles) {
+            // Most triangles have no short edge, which is cheaper to see than their aspect ratio.
+            if (!shortEdge(t[0], t[1]) && !shortEdge(t[1], t[2]) && !shortEdge(t[2], t[0])) continue;
             if (needleAspect > 0.0 && !(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > needleAspect)) continue;
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t a = t[k], b = t[(k + 1) % 3];
                 // Each edge once (from either triangle on it when only needles count).
-                if (!((a < b || needleAspect > 0.0) && glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2)) continue;
+                if (!((a < b || needleAspect > 0.0) && shortEdge(a, b))) continue;
                 bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
                 if (keepA && keepB) {
                     if (p[a] != p[b] || copies(p[a]) > 1) continue;

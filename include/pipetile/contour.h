@@ -179,6 +179,10 @@ double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std:
 /// Distance from a point to a closed polygon.
 double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point);
 
+/// Whether the point lies at least `clearance` from every segment of the closed polygon: as
+/// polygonClearance(polygon, point) >= clearance, but segments whose box is farther are skipped.
+bool clearOfPolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& point, double clearance);
+
 /// Where `directions` evenly spaced rays from the view's centre (angles 2*pi*k / directions) meet
 /// the loop's polygon first and last: distances from the centre, pixel units. The loop's shape as
 /// such rays see it, from the polygon alone (no root finding: far cheaper than castRays). Levels
