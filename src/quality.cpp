@@ -12,7 +12,6 @@
 #include <deque>
 #include <iterator>
 #include <limits>
-#include <unordered_map>
 
 namespace pipetile {
 
@@ -271,8 +270,8 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
 }
 
 // Collapses each pair's second vertex into (the vertex that now stands for) its first, in order,
-// where the collapse keeps a closed manifold so and passes `guard` (collapseImproves); a vertex
-// already collapsed stays where it went.
+// where the collapse keeps the mesh a closed manifold and passes `guard` (collapseImproves); a
+// vertex already collapsed stays where it went.
 // The vertices left keep their order.
 long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
                         Guard guard)
@@ -281,13 +280,13 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uin
     const std::vector<glm::dvec3>& p = mesh.vertices;
 
     // The triangles around the pairs' vertices; a collapse moves the gone end's into the kept one's.
-    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> around;
-    for (const auto& [a, b] : pairs) around[a], around[b];
+    // Indexed by vertex: a hash lookup for every corner cost more than all the collapses.
+    std::vector<char> paired(p.size(), 0);
+    for (const auto& [a, b] : pairs) paired[a] = paired[b] = 1;
+    std::vector<std::vector<std::uint32_t>> around(p.size());
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
-        for (const std::uint32_t v : mesh.triangles[f]) {
-            const auto at = around.find(v);
-            if (at != around.end()) at->second.push_back(f);
-        }
+        for (const std::uint32_t v : mesh.triangles[f])
+            if (paired[v]) around[v].push_back(f);
     std::vector<std::uint32_t> parent(p.size());
     for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
     std::vector<bool> gone(mesh.triangles.size(), false);
