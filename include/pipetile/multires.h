@@ -214,8 +214,16 @@ private:
     void followCentres();
     /// Each part's view from its partner's central point, the partner moved where need be.
     void centreParts();
-    /// The central point of `loop` that follows `before`'s along their tube (see followCentres).
-    static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop);
+    /// The central point of `loop` that follows `before`'s along their tube (see followCentres);
+    /// `followed` (out) says whether it is `before`'s moved with the section, not a clear point
+    /// found near it.
+    static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop, bool* followed = nullptr);
+    /// Moves `loop`'s central point (view and profile) to followedCentre's; whether it moved.
+    bool followCentre(const SliceLoop& from, SliceLoop& loop, bool& followed, bool onlyFollowed = false) const;
+    /// The centres before the tube's member k follow its centre back, where that puts the bands
+    /// in better register (see followCentres).
+    void followBack(const Tube& tube, std::size_t k);
+    SliceLoop& memberLoop(const Tube& tube, std::size_t k);
     void closeEnds();
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
     /// false if it added none.
