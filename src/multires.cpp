@@ -591,9 +591,13 @@ void Reconstruction::centreParts()
         for (std::size_t k = 0; k < junction.many.size(); ++k) partsOf[junction.many[k]].push_back(&junction.parts[k]);
     for (const auto& [loop, parts] : partsOf) {
         SliceLoop& partner = mLoops[loop.first][loop.second];
+        std::vector<Junction::Part*> counterclockwise; // the others wind around no point
         std::vector<const std::vector<glm::dvec2>*> polygons;
-        for (const Junction::Part* part : parts)
-            if (polygonArea(part->polygon) > 0.0) polygons.push_back(&part->polygon);
+        for (Junction::Part* part : parts)
+            if (polygonArea(part->polygon) > 0.0) {
+                counterclockwise.push_back(part);
+                polygons.push_back(&part->polygon);
+            }
         const double depth = commonDepth(partner.loop, polygons, partner.view.center);
         glm::dvec2 centre;
         if (!polygons.empty() && depth < kClearance && deepestCommonPoint(partner.loop, polygons, centre) > depth) {
@@ -603,8 +607,7 @@ void Reconstruction::centreParts()
                 partner.view = std::move(view);
             }
         }
-        for (Junction::Part* part : parts) {
-            if (!(polygonArea(part->polygon) > 0.0)) continue;
+        for (Junction::Part* part : counterclockwise) {
             LoopView view = viewOfPolygon(part->polygon, partner.view.center);
             if (view.winding != 1) continue;
             part->view = std::move(view);
