@@ -178,6 +178,23 @@ void noteIsovalue(const Volume& volume, const Notify& notify)
                       volume.minValue(), volume.maxValue()));
 }
 
+namespace {
+
+// Pieces no construction handles are capped one by one, so the mesh's topology can differ from
+// the isosurface's there: a user comparing the two should not have to find that in the report.
+void warnIfUnresolved(const Volume& volume, const ReconstructionStats& stats, const Notify& notify)
+{
+    const int pieces = stats.unresolvedEvents + stats.unresolvedJunctions;
+    if (pieces == 0) return;
+    notify("warning", format("grid '%s': %d slab piece%s (%d of them forks or merges) fit no construction and %s "
+                             "capped contour by contour: there the mesh's topology can differ from the "
+                             "isosurface's (see the report's events; --validate compares them)",
+                             volume.gridName().c_str(), pieces, pieces == 1 ? "" : "s", stats.unresolvedJunctions,
+                             pieces == 1 ? "is" : "are"));
+}
+
+} // namespace
+
 json meshFrame(const FrameJob& job)
 {
     const Clock::time_point start = Clock::now();
@@ -217,6 +234,7 @@ json meshFrame(const FrameJob& job)
         job.notify("warning", format("levels above %d cast more rays than the longest boundary has pixels (%lld); they "
                                      "add vertices but no detail (lower --levels or --rays)",
                                      reconstruction.finestUsefulLevel(), reconstruction.stats().longestBoundary));
+    warnIfUnresolved(volume, reconstruction.stats(), job.notify);
     const std::vector<LevelMesh> levels = buildLevels(reconstruction, job);
 
     // Each level to its temporary file; they replace the earlier files together, with the report.
