@@ -312,6 +312,23 @@ TEST(Quality, NoNeedlesOnTheRealData)
     // single contour's: aspect up to 23870. The collapses take those vertices out.
     expectNoNeedlesOnRealData("vmtk_aorta_ls.vdb");
     expectNoNeedlesOnRealData("ts_common_carotid_artery_left_ls.vdb");
+    // Gaffer's sphere, as a level set and as a density fog: smooth, one tube capped at both ends.
+    expectNoNeedlesOnRealData("gaffer_sphere_levelset.vdb");
+    expectNoNeedlesOnRealData("gaffer_sphere_density_fog.vdb");
+}
+
+TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
+{
+    // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy
+    // fog of 547 tubes, keeps largest aspect ratios 154, 282, 756 and 1498 at levels 0 to 3, and
+    // 9, 8 and 8 triangles of no area at levels 1 to 3. At level 0, four needles over 100 have a
+    // short edge whose ends share a neighbour besides the edge's two third corners (the link
+    // condition refuses: the collapse would pinch the surface). At levels 1 to 3, 41 of 43, 52 of
+    // 60 and 71 of 83 needles over 100 have a short edge (down to 0.004 voxel, or none: the
+    // triangles of no area join two copies of one point) whose two ends are both vertices of the
+    // level below, mostly not joined there: the refined tiling joins them, and neither may go, or
+    // levels would no longer nest.
+    expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb");
 }
 
 TEST(Quality, NoNeedlesAtAConesTip)
