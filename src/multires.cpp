@@ -1788,12 +1788,15 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
         const double reach = std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel;
         collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true);
-        result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+        long long flips = flipNeedles(mesh, mVolume, mPlan.axis);
+        result.flips = flips;
         // A flip lowers the worse of two triangles, and the better one it made can be a needle a
         // collapse now takes (the gaffer smoke's 118 at level 0): collapses and flips take turns
-        // until no collapse is left. Each collapse removes a vertex, so the turns end.
-        while (collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true) > 0)
-            result.flips += flipNeedles(mesh, mVolume, mPlan.axis);
+        // until either finds nothing. Each collapse removes a vertex, so the turns end.
+        while (flips > 0 && collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true) > 0) {
+            flips = flipNeedles(mesh, mVolume, mPlan.axis);
+            result.flips += flips;
+        }
     }
     return std::move(result);
 }

@@ -455,12 +455,18 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               double needleAspect, bool lowerWorst, bool measureMove)
 {
-    std::vector<glm::dvec3> kept = coarser;
-    std::sort(kept.begin(), kept.end(), before);
+    // Sorted on the first edge that may go: most meshes have none.
+    std::vector<glm::dvec3> kept;
+    bool sorted = false;
     // How many copies of a point the coarser level has: two constructions can put a vertex on
     // another bit for bit (a junction part's crossing on the single contour's), and each copy
     // that level has must stay.
     const auto copies = [&](const glm::dvec3& q) {
+        if (!sorted) {
+            kept = coarser;
+            std::sort(kept.begin(), kept.end(), before);
+            sorted = true;
+        }
         const auto [from, to] = std::equal_range(kept.begin(), kept.end(), q, before);
         return to - from;
     };
