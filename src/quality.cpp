@@ -346,12 +346,39 @@ struct Collapse {
     bool operator==(const Collapse& o) const { return keep == o.keep && go == o.go && eitherWay == o.eitherWay; }
 };
 
+// The triangles around some of a mesh's vertices, by vertex id: a slot per vertex, so that
+// gathering them costs one array read per corner (a hash map's lookups were most of the collapses'
+// time on the hollow Y).
+class VertexFans {
+public:
+    explicit VertexFans(std::size_t vertices) : mSlot(vertices, kNone) {}
+
+    std::vector<std::uint32_t>& operator[](std::uint32_t v)
+    {
+        if (mSlot[v] == kNone) {
+            mSlot[v] = static_cast<std::uint32_t>(mFans.size());
+            mFans.emplace_back();
+        }
+        return mFans[mSlot[v]];
+    }
+
+    // Triangle f joins v's fan if v has one.
+    void offer(std::uint32_t v, std::uint32_t f)
+    {
+        if (mSlot[v] != kNone) mFans[mSlot[v]].push_back(f);
+    }
+
+private:
+    static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+    std::vector<std::uint32_t> mSlot;
+    std::deque<std::vector<std::uint32_t>> mFans; // a deque: a fan added keeps the others where they are
+};
+
 // Whether b may go into a: the edge has two triangles and the link condition holds (the
 // neighbours a and b share are exactly the third corners of those two; otherwise the collapse
 // would pinch the surface). Fills `on` with the two triangles.
-bool linkAllows(const TriangleMesh& mesh, std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>& around,
-                const std::vector<bool>& gone, std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b,
-                std::vector<std::uint32_t>& on)
+bool linkAllows(const TriangleMesh& mesh, VertexFans& around, const std::vector<bool>& gone,
+                std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, std::vector<std::uint32_t>& on)
 {
     std::vector<std::uint32_t> nearA, nearB, opposite;
     on.clear();
@@ -383,13 +410,10 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
     const std::vector<glm::dvec3>& p = mesh.vertices;
 
     // The triangles around the pairs' vertices; a collapse moves the gone end's into the kept one's.
-    std::unordered_map<std::uint32_t, std::vector<std::uint32_t>> around;
+    VertexFans around(p.size());
     for (const Collapse& c : pairs) around[c.keep], around[c.go];
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
-        for (const std::uint32_t v : mesh.triangles[f]) {
-            const auto at = around.find(v);
-            if (at != around.end()) at->second.push_back(f);
-        }
+        for (const std::uint32_t v : mesh.triangles[f]) around.offer(v, f);
     std::vector<std::uint32_t> parent(p.size());
     for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
     std::vector<bool> gone(mesh.triangles.size(), false);
