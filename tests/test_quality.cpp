@@ -323,7 +323,9 @@ TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
     // fog of 547 tubes, keeps largest aspect ratios 154, 282, 756 and 1498 at levels 0 to 3, and
     // 9, 8 and 8 triangles of no area at levels 1 to 3. At level 0, four needles over 100 have a
     // short edge whose ends share a neighbour besides the edge's two third corners (the link
-    // condition refuses: the collapse would pinch the surface). At levels 1 to 3, 41 of 43, 52 of
+    // condition refuses: the collapse would pinch the surface); one lies on a blob under a voxel
+    // across, a contour of 5 vertices banded to one of 3 a quarter voxel away, where each vertex
+    // of the one neighbours most of the other's. At levels 1 to 3, 41 of 43, 52 of
     // 60 and 71 of 83 needles over 100 have a short edge (down to 0.004 voxel, or none: the
     // triangles of no area join two copies of one point) whose two ends are both vertices of the
     // level below, mostly not joined there: the refined tiling joins them, and neither may go, or
