@@ -1847,9 +1847,17 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // a coarser level's bands and sectors are about twice as long, and so are its needles'
         // short edges for one aspect ratio.
         const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
-        collapseNeedleEdges(mesh, std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel, coarser,
-                            kCollapseAspect, true);
-        result.flips = flipNeedles(mesh, mVolume, mPlan.axis);
+        const double reach = std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel;
+        collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true);
+        long long flips = flipNeedles(mesh, mVolume, mPlan.axis);
+        result.flips = flips;
+        // A flip lowers the worse of two triangles, and the better one it made can be a needle a
+        // collapse now takes (the gaffer smoke's 118 at level 0): collapses and flips take turns
+        // until either finds nothing. Each collapse removes a vertex, so the turns end.
+        while (flips > 0 && collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true) > 0) {
+            flips = flipNeedles(mesh, mVolume, mPlan.axis);
+            result.flips += flips;
+        }
     }
     return std::move(result);
 }

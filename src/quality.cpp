@@ -7,6 +7,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <deque>
@@ -242,15 +243,79 @@ bool before(const glm::dvec3& a, const glm::dvec3& b)
     return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
 }
 
-// Whether moving corner b of the triangles `around` it to a (those on edge a-b go) turns none of
-// them over, which would fold the surface, and with Guard::Better whether it also lowers the
-// largest aspect ratio among them.
-enum class Guard { Unfolded, Better };
+// The distance from q to triangle abc (Ericson, Real-Time Collision Detection, 5.1.5: the
+// closest point by the Voronoi regions of the corners, edges and face).
+double pointTriangleDistance(const glm::dvec3& q, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const glm::dvec3 ab = b - a, ac = c - a, aq = q - a;
+    const double d1 = glm::dot(ab, aq), d2 = glm::dot(ac, aq);
+    if (d1 <= 0.0 && d2 <= 0.0) return glm::length(aq);
+    const glm::dvec3 bq = q - b;
+    const double d3 = glm::dot(ab, bq), d4 = glm::dot(ac, bq);
+    if (d3 >= 0.0 && d4 <= d3) return glm::length(bq);
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return glm::length(aq - ab * (d1 / (d1 - d3)));
+    const glm::dvec3 cq = q - c;
+    const double d5 = glm::dot(ab, cq), d6 = glm::dot(ac, cq);
+    if (d6 >= 0.0 && d5 <= d6) return glm::length(cq);
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return glm::length(aq - ac * (d2 / (d2 - d6)));
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
+        return glm::length(bq - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+    const double denominator = va + vb + vc;
+    if (!(denominator > 0.0)) return glm::length(aq); // no area: its corners are as near as it gets
+    return glm::length(aq - ab * (vb / denominator) - ac * (vc / denominator));
+}
 
+// What a collapse must do besides keeping a closed manifold so and turning no triangle over.
+struct Guard {
+    bool lowerWorst = false; // lower the largest aspect ratio of the triangles around the vertex that goes
+    double reach = 0.0; // world units: an edge longer than this goes only where the surface moves less (collapseMove)
+};
+
+using Corners = std::array<glm::dvec3, 3>;
+
+// The distance from q to the nearest of `fan`'s triangles.
+double fanDistance(const glm::dvec3& q, const std::vector<Corners>& fan)
+{
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Corners& t : fan) nearest = std::min(nearest, pointTriangleDistance(q, t[0], t[1], t[2]));
+    return nearest;
+}
+
+// How far the surface moves when the triangles `before` around a vertex b become `after` (b
+// moved onto a neighbour a, the two triangles on edge a-b gone): b's distance to the triangles
+// after, and the distance of the points in between to those before, sampled at each new
+// triangle's centroid and the midpoints of its two edges at a (a vertex's distance is 0, and the
+// third edge is an edge before too). The samples matter where a lies off b's tangent plane: a
+// cone's tip moved onto its base's rim keeps b near another tip vertex, but the side it drags
+// along leaves the cone by voxels.
+double collapseMove(const glm::dvec3& a, const glm::dvec3& b, const std::vector<Corners>& before,
+                    const std::vector<Corners>& after)
+{
+    double move = fanDistance(b, after);
+    for (const Corners& t : after) {
+        move = std::max(move, fanDistance((t[0] + t[1] + t[2]) / 3.0, before));
+        for (int k = 0; k < 3; ++k)
+            if (t[k] == a) {
+                move = std::max(move, fanDistance((a + t[(k + 1) % 3]) / 2.0, before));
+                move = std::max(move, fanDistance((a + t[(k + 2) % 3]) / 2.0, before));
+            }
+    }
+    return move;
+}
+
+// Whether moving corner b of the triangles `around` it to a (those on edge a-b go) turns none of
+// them over, which would fold the surface, and passes `guard`.
 bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>& around, const std::vector<bool>& gone,
-                      std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, Guard guard)
+                      std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, const Guard& guard)
 {
     const std::vector<glm::dvec3>& p = mesh.vertices;
+    // An edge within the reach moves the surface by its length at most; past it, by as much only
+    // where collapseMove says so. Along a nearly straight contour that is far below the length.
+    const bool far = glm::dot(p[a] - p[b], p[a] - p[b]) > guard.reach * guard.reach;
+    std::vector<Corners> before, after;
     double worstBefore = 0.0, worstAfter = 0.0;
     for (const std::uint32_t f : around) {
         if (gone[f]) continue;
@@ -258,69 +323,118 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
         for (std::uint32_t& w : t) w = rootOf(parent, w);
         if (!holds(t, b)) continue;
         worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        if (far) before.push_back({p[t[0]], p[t[1]], p[t[2]]});
         if (holds(t, a)) continue;
-        const glm::dvec3 before = faceNormal(mesh, t);
+        const glm::dvec3 normal = faceNormal(mesh, t);
         for (std::uint32_t& w : t) w = w == b ? a : w;
         // A triangle of no area has no side to turn over (three copies of one point: the twisting
         // C's junctions leave 198 such triangles on each level unless they go).
-        if (before != glm::dvec3(0.0) && !(glm::dot(faceNormal(mesh, t), before) > 0.0)) return false;
+        if (normal != glm::dvec3(0.0) && !(glm::dot(faceNormal(mesh, t), normal) > 0.0)) return false;
         worstAfter = std::max(worstAfter, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        if (far) after.push_back({p[t[0]], p[t[1]], p[t[2]]});
     }
-    return guard != Guard::Better || worstAfter < worstBefore;
+    if (guard.lowerWorst && !(worstAfter < worstBefore)) return false;
+    return !far || collapseMove(p[a], p[b], before, after) <= guard.reach;
 }
 
-// Collapses each pair's second vertex into (the vertex that now stands for) its first, in order,
-// where the collapse keeps the mesh a closed manifold and passes `guard` (collapseImproves); a
-// vertex already collapsed stays where it went.
-// The vertices left keep their order.
-long long collapsePairs(TriangleMesh& mesh, const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs,
-                        Guard guard)
+// One edge collapse to try: `go` into (the vertex that now stands for) `keep`; with `eitherWay`
+// (neither end is a vertex of the coarser level), `keep` into `go` where that one cannot be made.
+struct Collapse {
+    std::uint32_t keep, go;
+    bool eitherWay;
+    bool operator==(const Collapse& o) const { return keep == o.keep && go == o.go && eitherWay == o.eitherWay; }
+};
+
+// The triangles around some of a mesh's vertices, by vertex id: a slot per vertex, so that
+// gathering them costs one array read per corner (a hash map's lookups were most of the collapses'
+// time on the hollow Y).
+class VertexFans {
+public:
+    explicit VertexFans(std::size_t vertices) : mSlot(vertices, kNone) {}
+
+    std::vector<std::uint32_t>& operator[](std::uint32_t v)
+    {
+        if (mSlot[v] == kNone) {
+            mSlot[v] = static_cast<std::uint32_t>(mFans.size());
+            mFans.emplace_back();
+        }
+        return mFans[mSlot[v]];
+    }
+
+    // Triangle f joins v's fan if v has one.
+    void offer(std::uint32_t v, std::uint32_t f)
+    {
+        if (mSlot[v] != kNone) mFans[mSlot[v]].push_back(f);
+    }
+
+private:
+    static constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+    std::vector<std::uint32_t> mSlot;
+    std::deque<std::vector<std::uint32_t>> mFans; // a deque: a fan added keeps the others where they are
+};
+
+// Whether b may go into a: the edge has two triangles and the link condition holds (the
+// neighbours a and b share are exactly the third corners of those two; otherwise the collapse
+// would pinch the surface). Fills `on` with the two triangles.
+bool linkAllows(const TriangleMesh& mesh, VertexFans& around, const std::vector<bool>& gone,
+                std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, std::vector<std::uint32_t>& on)
+{
+    std::vector<std::uint32_t> nearA, nearB, opposite;
+    on.clear();
+    for (const std::uint32_t end : {a, b})
+        for (const std::uint32_t f : around[end]) {
+            if (gone[f]) continue;
+            Triangle t = mesh.triangles[f];
+            for (std::uint32_t& w : t) w = rootOf(parent, w);
+            const bool hasA = holds(t, a), hasB = holds(t, b);
+            for (const std::uint32_t w : t)
+                if (w != a && w != b) (hasA && hasB ? opposite : hasA ? nearA : nearB).push_back(w);
+            if (hasA && hasB && end == a) on.push_back(f);
+        }
+    for (std::vector<std::uint32_t>* list : {&nearA, &nearB, &opposite}) {
+        std::sort(list->begin(), list->end());
+        list->erase(std::unique(list->begin(), list->end()), list->end());
+    }
+    std::vector<std::uint32_t> shared;
+    std::set_intersection(nearA.begin(), nearA.end(), nearB.begin(), nearB.end(), std::back_inserter(shared));
+    return on.size() == 2 && opposite.size() == 2 && shared == opposite;
+}
+
+// Makes the collapses in order, where the collapse keeps the mesh a closed manifold and passes
+// `guard` (collapseImproves); a vertex already collapsed stays where it went. The vertices left
+// keep their order.
+long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, const Guard& guard)
 {
     if (pairs.empty()) return 0; // the common case costs one pass over the triangles
     const std::vector<glm::dvec3>& p = mesh.vertices;
 
     // The triangles around the pairs' vertices; a collapse moves the gone end's into the kept one's.
-    // Indexed by vertex: a hash lookup for every corner cost more than all the collapses.
-    std::vector<char> paired(p.size(), 0);
-    for (const auto& [a, b] : pairs) paired[a] = paired[b] = 1;
-    std::vector<std::vector<std::uint32_t>> around(p.size());
+    VertexFans around(p.size());
+    for (const Collapse& c : pairs) around[c.keep], around[c.go];
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
-        for (const std::uint32_t v : mesh.triangles[f])
-            if (paired[v]) around[v].push_back(f);
+        for (const std::uint32_t v : mesh.triangles[f]) around.offer(v, f);
     std::vector<std::uint32_t> parent(p.size());
     for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
     std::vector<bool> gone(mesh.triangles.size(), false);
-    long long collapsed = 0;
-    for (const auto& [keep, go] : pairs) {
-        const std::uint32_t a = rootOf(parent, keep), b = go;
-        if (a == b || parent[b] != b) continue;
-        // Link condition: the neighbours a and b share are exactly the third corners of the (two)
-        // triangles on the edge; otherwise the collapse would pinch the surface.
-        std::vector<std::uint32_t> on, nearA, nearB, opposite;
-        for (const std::uint32_t end : {a, b})
-            for (const std::uint32_t f : around[end]) {
-                if (gone[f]) continue;
-                Triangle t = mesh.triangles[f];
-                for (std::uint32_t& w : t) w = rootOf(parent, w);
-                const bool hasA = holds(t, a), hasB = holds(t, b);
-                for (const std::uint32_t w : t)
-                    if (w != a && w != b) (hasA && hasB ? opposite : hasA ? nearA : nearB).push_back(w);
-                if (hasA && hasB && end == a) on.push_back(f);
-            }
-        for (std::vector<std::uint32_t>* list : {&nearA, &nearB, &opposite}) {
-            std::sort(list->begin(), list->end());
-            list->erase(std::unique(list->begin(), list->end()), list->end());
-        }
-        std::vector<std::uint32_t> shared;
-        std::set_intersection(nearA.begin(), nearA.end(), nearB.begin(), nearB.end(), std::back_inserter(shared));
-        if (on.size() != 2 || opposite.size() != 2 || shared != opposite) continue;
-        if (!collapseImproves(mesh, around[b], gone, parent, a, b, guard)) continue;
+    std::vector<std::uint32_t> on;
+    const auto tryCollapse = [&](std::uint32_t a, std::uint32_t b) {
+        if (a == b || parent[b] != b || !linkAllows(mesh, around, gone, parent, a, b, on) ||
+            !collapseImproves(mesh, around[b], gone, parent, a, b, guard))
+            return false;
         for (const std::uint32_t f : on) gone[f] = true;
         parent[b] = a;
         std::vector<std::uint32_t>& into = around[a];
         const std::vector<std::uint32_t>& from = around[b];
         into.insert(into.end(), from.begin(), from.end());
-        ++collapsed;
+        return true;
+    };
+    long long collapsed = 0;
+    for (const Collapse& c : pairs) {
+        const std::uint32_t a = rootOf(parent, c.keep);
+        // The other way round, where the first fails: a needle's short edge whose preferred end
+        // cannot go (it would turn a triangle over, or raise the worst aspect around, as on the
+        // gaffer smoke's 266 at level 0 that the other way lowers to 46) may still go the other.
+        if (tryCollapse(a, c.go) || (c.eitherWay && a == c.keep && tryCollapse(c.go, a))) ++collapsed;
     }
     if (collapsed == 0) return 0;
 
@@ -362,16 +476,18 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 }
 
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect, bool lowerWorst)
+                              double needleAspect, bool lowerWorst, bool measureMove)
 {
     // How many copies of a point the coarser level has: two constructions can put a vertex on
     // another bit for bit (a junction part's crossing on the single contour's), and each copy
-    // that level has must stay. Sorted at the first short edge: most levels have none.
+    // that level has must stay. Sorted on the first edge that may go: most meshes have none.
     std::vector<glm::dvec3> kept;
+    bool sorted = false;
     const auto copies = [&](const glm::dvec3& q) {
-        if (kept.empty() && !coarser.empty()) {
+        if (!sorted) {
             kept = coarser;
             std::sort(kept.begin(), kept.end(), before);
+            sorted = true;
         }
         const auto [from, to] = std::equal_range(kept.begin(), kept.end(), q, before);
         return to - from;
@@ -382,18 +498,19 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
     // them); rounds go on until none is left that may go.
     for (long long round = 1; round > 0; collapsed += round) {
         const std::vector<glm::dvec3>& p = mesh.vertices;
-        std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs; // (kept, gone)
-        const auto shortEdge = [&](std::uint32_t a, std::uint32_t b) {
-            return glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2;
+        std::vector<Collapse> pairs;
+        // Only short edges may go, unless the move is measured: most triangles have none, which is
+        // cheaper to see than their aspect ratio.
+        const auto mayGo = [&](std::uint32_t a, std::uint32_t b) {
+            return measureMove || glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2;
         };
         for (const Triangle& t : mesh.triangles) {
-            // Most triangles have no short edge, which is cheaper to see than their aspect ratio.
-            if (!shortEdge(t[0], t[1]) && !shortEdge(t[1], t[2]) && !shortEdge(t[2], t[0])) continue;
+            if (!mayGo(t[0], t[1]) && !mayGo(t[1], t[2]) && !mayGo(t[2], t[0])) continue;
             if (needleAspect > 0.0 && !(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > needleAspect)) continue;
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t a = t[k], b = t[(k + 1) % 3];
                 // Each edge once (from either triangle on it when only needles count).
-                if (!((a < b || needleAspect > 0.0) && shortEdge(a, b))) continue;
+                if (!((a < b || needleAspect > 0.0) && mayGo(a, b))) continue;
                 bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
                 if (keepA && keepB) {
                     if (p[a] != p[b] || copies(p[a]) > 1) continue;
@@ -402,15 +519,16 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                 // A vertex of the coarser level stays; between two new ones, the first by position (by id
                 // between copies of one point, which both ways of building a level number alike).
                 const bool first = before(p[a], p[b]) || (p[a] == p[b] && a < b);
-                pairs.push_back(keepA || (!keepB && first) ? std::pair{a, b} : std::pair{b, a});
+                const bool eitherWay = !keepA && !keepB;
+                pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay} : Collapse{b, a, eitherWay});
             }
         }
         // By position, not id: the same collapses whichever way the level was built.
         std::sort(pairs.begin(), pairs.end(), [&](const auto& x, const auto& y) {
-            return p[x.second] != p[y.second] ? before(p[x.second], p[y.second]) : before(p[x.first], p[y.first]);
+            return p[x.go] != p[y.go] ? before(p[x.go], p[y.go]) : before(p[x.keep], p[y.keep]);
         });
         pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-        round = collapsePairs(mesh, pairs, lowerWorst ? Guard::Better : Guard::Unfolded);
+        round = collapsePairs(mesh, pairs, Guard{lowerWorst, tolerance});
     }
     return collapsed;
 }

@@ -191,43 +191,6 @@ TEST(Graph, ArcsOfAPeanutGoToItsLobes)
     EXPECT_FALSE(splitIntoArcs(circle({-5.0, 0.0}, 3.0, 3.0, 32), nullptr, {&left, &far}, none));
 }
 
-namespace {
-
-// A C-shaped section (a 270-degree arc of radius 12, 5 thick) turning `radiansPerVoxel` along z,
-// over z in [16, 48]. The in-plane distance changes up to 14.5 * radiansPerVoxel times faster
-// along z than a distance may, so it is divided by that bound (the zero set is the same; the
-// level set's band stays valid).
-Volume twistingC(double radiansPerVoxel)
-{
-    const samples::DistanceFunction c = [radiansPerVoxel](const glm::dvec3& p) {
-        const double turn = (p.z - 32.0) * radiansPerVoxel;
-        const glm::dvec2 q(p.x - 32.0, p.y - 32.0);
-        const double angle = std::atan2(q.y, q.x) - turn;
-        const double wrapped = std::remainder(angle, 2.0 * kPi); // (-pi, pi]: the gap is around 0
-        const double gapHalf = kPi / 4.0;
-        double inPlane;
-        if (std::abs(wrapped) > gapHalf) {
-            inPlane = std::abs(glm::length(q) - 12.0) - 2.5;
-        } else {
-            // Nearest arc end: the ends at angles turn +- gapHalf, radius 12.
-            double best = 1e9;
-            for (double end : {turn + gapHalf, turn - gapHalf}) {
-                const glm::dvec2 e(12.0 * std::cos(end), 12.0 * std::sin(end));
-                best = std::min(best, glm::length(q - e) - 2.5);
-            }
-            inPlane = best;
-        }
-        const double lipschitz = std::sqrt(1.0 + std::pow(14.5 * radiansPerVoxel, 2.0));
-        inPlane /= lipschitz;
-        const double along = (std::abs(p.z - 32.0) - 16.0) / lipschitz;
-        return std::max(inPlane, along) > 0.0 ? glm::length(glm::dvec2(std::max(inPlane, 0.0), std::max(along, 0.0)))
-                                              : std::max(inPlane, along);
-    };
-    return samples::levelSetFromDistance(c, {64, 64, 64}, 1.0, "twisting C");
-}
-
-} // namespace
-
 TEST(Graph, TwistingCStaysOneTube)
 {
     // The C turning 15 degrees per voxel: its centroid lies in the gap, its central point on the
@@ -235,7 +198,7 @@ TEST(Graph, TwistingCStaysOneTube)
     // overlap in part only, and their ends change. The slab joins them: one tube, no events, the
     // isosurface's topology (a sphere). (The old tiler's main path failed on these contours with
     // an internal error.)
-    const Volume volume = twistingC(kPi / 12.0);
+    const Volume volume = test::twistingC(kPi / 12.0);
     MeshOptions options;
     options.slicing.axis = Axis::Z;
     const Reconstruction reconstruction(volume, options);
@@ -257,7 +220,7 @@ TEST(Graph, TwistingCsAreCappedAtTheirFlatEnds)
 {
     for (const double degreesPerVoxel : {10.0, 15.0, 20.0}) {
         SCOPED_TRACE(degreesPerVoxel);
-        const Volume volume = twistingC(degreesPerVoxel * kPi / 180.0);
+        const Volume volume = test::twistingC(degreesPerVoxel * kPi / 180.0);
         MeshOptions options;
         options.slicing.axis = Axis::Z;
         const Reconstruction reconstruction(volume, options);

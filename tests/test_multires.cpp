@@ -279,10 +279,13 @@ TEST(Multires, RefinementEqualsBuildingFromScratch)
 {
     // Refining casts only the new rays and reuses the coarse crossings; the result must be the
     // level built from scratch, vertex for vertex and triangle for triangle, and nest the level
-    // below bit for bit. On analytic phantoms and the real data.
+    // below bit for bit. On analytic phantoms and the real data (the hollow Y and the T branch:
+    // needle collapses past the reach, and either end of an edge).
     std::vector<Volume> volumes = {cachedSample("helix"),
                                    cachedSample("bean"),
                                    cachedSample("hollow"),
+                                   cachedSample("hollow-y"),
+                                   cachedSample("tbranch"),
                                    readVolume(test::realData("vmtk_aorta_ls.vdb")),
                                    readVolume(test::realData("ts_common_carotid_artery_left_ls.vdb")),
                                    readVolume(test::realData("cip_cone_vessel_density.vdb"))};

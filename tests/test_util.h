@@ -105,6 +105,11 @@ std::map<std::string, std::string> folderBytes(const std::string& folder);
 /// Generated samples, made once per test process.
 const Volume& cachedSample(const std::string& name);
 
+/// A C-shaped section (a 270-degree arc of radius 12, 5 thick) turning `radiansPerVoxel` along
+/// z, over z in [16, 48], as a level set of 64^3 voxels: sections that overlap in part only
+/// from one slice to the next, and whose ends move (graph and quality tests).
+Volume twistingC(double radiansPerVoxel);
+
 /// A real third-party volume from ../shared/data/real.
 std::string realData(const std::string& file);
 
