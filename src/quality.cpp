@@ -243,31 +243,6 @@ bool before(const glm::dvec3& a, const glm::dvec3& b)
     return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
 }
 
-// The distance from q to triangle abc (Ericson, Real-Time Collision Detection, 5.1.5: the
-// closest point by the Voronoi regions of the corners, edges and face).
-double pointTriangleDistance(const glm::dvec3& q, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
-{
-    const glm::dvec3 ab = b - a, ac = c - a, aq = q - a;
-    const double d1 = glm::dot(ab, aq), d2 = glm::dot(ac, aq);
-    if (d1 <= 0.0 && d2 <= 0.0) return glm::length(aq);
-    const glm::dvec3 bq = q - b;
-    const double d3 = glm::dot(ab, bq), d4 = glm::dot(ac, bq);
-    if (d3 >= 0.0 && d4 <= d3) return glm::length(bq);
-    const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return glm::length(aq - ab * (d1 / (d1 - d3)));
-    const glm::dvec3 cq = q - c;
-    const double d5 = glm::dot(ab, cq), d6 = glm::dot(ac, cq);
-    if (d6 >= 0.0 && d5 <= d6) return glm::length(cq);
-    const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return glm::length(aq - ac * (d2 / (d2 - d6)));
-    const double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
-        return glm::length(bq - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
-    const double denominator = va + vb + vc;
-    if (!(denominator > 0.0)) return glm::length(aq); // no area: its corners are as near as it gets
-    return glm::length(aq - ab * (vb / denominator) - ac * (vc / denominator));
-}
-
 // What a collapse must do besides keeping a closed manifold so and turning no triangle over.
 struct Guard {
     bool lowerWorst = false; // lower the largest aspect ratio of the triangles around the vertex that goes
@@ -280,7 +255,7 @@ using Corners = std::array<glm::dvec3, 3>;
 double fanDistance(const glm::dvec3& q, const std::vector<Corners>& fan)
 {
     double nearest = std::numeric_limits<double>::infinity();
-    for (const Corners& t : fan) nearest = std::min(nearest, pointTriangleDistance(q, t[0], t[1], t[2]));
+    for (const Corners& t : fan) nearest = std::min(nearest, glm::length(closestOnTriangle(q, t[0], t[1], t[2]) - q));
     return nearest;
 }
 
@@ -461,6 +436,29 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
 }
 
 } // namespace
+
+glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) return a;
+    const glm::dvec3 bp = p - b;
+    const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) return b;
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return a + (d1 / (d1 - d3)) * ab;
+    const glm::dvec3 cp = p - c;
+    const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) return c;
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return a + (d2 / (d2 - d6)) * ac;
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    const double sum = va + vb + vc;
+    if (!(sum > 0.0)) return a; // no area: its corners are as near as it gets
+    const double denom = 1.0 / sum;
+    return a + ab * (vb * denom) + ac * (vc * denom);
+}
 
 std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh)
 {

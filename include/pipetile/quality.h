@@ -82,6 +82,12 @@ constexpr double kShortEdgeAspect = 10.0;
 constexpr double kNeedleReachVoxels = 0.3;
 constexpr double kCollapseAspect = 50.0;
 
+/// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5: by the
+/// Voronoi regions of the corners, edges and face). A triangle of no area that none of the corner
+/// and edge regions claims gives its corner a. Used by validation's distances and by the needle
+/// collapses' measure of how far the surface moves.
+glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
+
 /// Triangles with an angle below this many degrees are counted as needles in reports.
 constexpr double kNeedleDegrees = 5.0;
 
