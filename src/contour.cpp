@@ -286,15 +286,25 @@ long long overlapPixels(const BoundaryLoop& a, const BoundaryLoop& b, const glm:
     return common;
 }
 
+namespace {
+
+// From p to the nearest point of segment [a, b].
+glm::dvec2 toSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b)
+{
+    const glm::dvec2 ab = b - a;
+    const double len2 = glm::dot(ab, ab);
+    const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+    return a + t * ab - p;
+}
+
+} // namespace
+
 double polygonClearance(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p)
 {
     double nearest = std::numeric_limits<double>::infinity();
     const std::size_t m = polygon.size();
     for (std::size_t i = 0; i < m; ++i) {
-        const glm::dvec2 a = polygon[i], ab = polygon[i + 1 < m ? i + 1 : 0] - a;
-        const double len2 = glm::dot(ab, ab);
-        const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
-        const glm::dvec2 d = a + t * ab - p;
+        const glm::dvec2 d = toSegment(p, polygon[i], polygon[i + 1 < m ? i + 1 : 0]);
         nearest = std::min(nearest, glm::dot(d, d)); // squared: one root at the end
     }
     return std::sqrt(nearest);
@@ -309,11 +319,7 @@ bool clearOfPolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p,
         if (p.x < std::min(a.x, b.x) - clearance || p.x > std::max(a.x, b.x) + clearance ||
             p.y < std::min(a.y, b.y) - clearance || p.y > std::max(a.y, b.y) + clearance)
             continue;
-        const glm::dvec2 ab = b - a;
-        const double len2 = glm::dot(ab, ab);
-        const double t = len2 > 0.0 ? glm::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
-        const glm::dvec2 d = a + t * ab - p;
-        if (glm::length(d) < clearance) return false;
+        if (glm::length(toSegment(p, a, b)) < clearance) return false;
     }
     return true;
 }
