@@ -324,6 +324,43 @@ bool clearOfPolygon(const std::vector<glm::dvec2>& polygon, const glm::dvec2& p,
     return true;
 }
 
+BoundaryLoop waistAround(const std::vector<const std::vector<glm::dvec2>*>& walls, double maxGrowth)
+{
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    for (const std::vector<glm::dvec2>* wall : walls)
+        for (const glm::dvec2& p : *wall) {
+            lo = glm::min(lo, p);
+            hi = glm::max(hi, p);
+        }
+    if (walls.empty() || !(lo.x <= hi.x)) return {};
+    // Room for the growth and a pixel of outside around it, so the walk sees the whole region.
+    const int pad = static_cast<int>(std::ceil(maxGrowth)) + 2;
+    detail::FieldImage image;
+    image.origin = glm::ivec2(static_cast<int>(std::floor(lo.x)), static_cast<int>(std::floor(lo.y))) - pad;
+    image.width = static_cast<int>(std::ceil(hi.x)) + pad + 1 - image.origin.x;
+    image.height = static_cast<int>(std::ceil(hi.y)) + pad + 1 - image.origin.y;
+    std::vector<double> distance(static_cast<std::size_t>(image.width) * image.height);
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x) {
+            const glm::dvec2 p(image.origin.x + x, image.origin.y + y);
+            double d = std::numeric_limits<double>::infinity();
+            for (const std::vector<glm::dvec2>* wall : walls)
+                d = std::min(d, insidePolygon(*wall, p) ? -polygonClearance(*wall, p) : polygonClearance(*wall, p));
+            distance[static_cast<std::size_t>(y) * image.width + x] = d;
+        }
+    image.values.resize(distance.size());
+    for (double growth = 0.0; growth <= maxGrowth; growth += 0.5) {
+        for (std::size_t i = 0; i < distance.size(); ++i) image.values[i] = distance[i] - growth;
+        std::vector<BoundaryLoop> loops = detail::traceBoundaries(image);
+        // The walls' union is one region when one loop runs counterclockwise; the clockwise ones
+        // are its holes, which the waist leaves out (filled).
+        const auto outer = [](const BoundaryLoop& l) { return !l.hole(); };
+        if (std::count_if(loops.begin(), loops.end(), outer) == 1)
+            return std::move(*std::find_if(loops.begin(), loops.end(), outer));
+    }
+    return {};
+}
+
 double boundaryClearance(const BoundaryLoop& loop, const glm::dvec2& p)
 {
     return polygonClearance(loop.points, p);

@@ -418,6 +418,21 @@ void Reconstruction::resolveEvents()
             }
             const bool joins = piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
                                (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2);
+            Junction merge, fork;
+            if (piece.kind == EventKind::Unresolved && makeWaist(slab, piece, merge, fork)) {
+                const int waist = static_cast<int>(mLoops.size()) - 1, id = static_cast<int>(mJunctions.size());
+                tubeOf.emplace_back(1, -1);
+                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.junction = id;
+                const int t = startTube(waist, 0);
+                mTubes[t].bottom.junction = id;
+                mTubes[t].top.junction = id + 1;
+                for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id + 1;
+                ++mStats.waists;
+                mStats.saddles += static_cast<int>(piece.below.size() + piece.above.size()) - 2;
+                mJunctions.push_back(std::move(merge));
+                mJunctions.push_back(std::move(fork));
+                continue;
+            }
             Junction junction;
             if (joins && makeJunction(slab, piece, junction)) {
                 const int id = static_cast<int>(mJunctions.size());
@@ -469,6 +484,39 @@ bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiec
     for (int l : ones) (ones.size() == 2 && mLoops[s1][l].loop.hole() ? junction.inner : junction.single) = {s1, l};
     for (int l : fork ? piece.above : piece.below) junction.many.push_back({s2, l});
     return splitJunction(junction);
+}
+
+bool Reconstruction::makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork)
+{
+    // Where the slab's labelling joins several walls below to several above in one genus-0 piece
+    // and bisection found no plane between their saddles (fog voxels meeting along edges within
+    // one voxel slab), a contour around them all in the middle plane passes the piece's topology
+    // on: n walls merge into it, and it forks into m. Its geometry is the walls' union, so the
+    // crotches lie within the slab; holes have no construction here.
+    constexpr double kMaxGrowth = 2.0; // pixels: walls farther apart than twice this make no waist
+    if (piece.below.size() < 2 || piece.above.size() < 2) return false;
+    std::vector<const std::vector<glm::dvec2>*> walls;
+    for (const auto& [s, loops] : {std::pair{slab.below, &piece.below}, std::pair{slab.above, &piece.above}})
+        for (int l : *loops) {
+            if (mLoops[s][l].loop.hole()) return false;
+            walls.push_back(&mLoops[s][l].view.polygon);
+        }
+    SliceLoop waist;
+    waist.loop = waistAround(walls, kMaxGrowth);
+    if (waist.loop.corners.empty()) return false;
+    waist.view = viewFrom(waist.loop, centralPoint(waist.loop));
+    if (waist.view.winding != 1) return false;
+    waist.profile = radialProfile(waist.view, profileDirections());
+    waist.waist = true;
+    const int plane = static_cast<int>(mLoops.size());
+    mPositions.push_back(0.5 * (mPositions[slab.below] + mPositions[slab.above]));
+    mLoops.push_back({std::move(waist)});
+    if (makeJunction({slab.below, plane, {}}, {piece.below, {0}, EventKind::Merge}, merge) &&
+        makeJunction({plane, slab.above, {}}, {{0}, piece.above, EventKind::Fork}, fork))
+        return true;
+    mPositions.pop_back();
+    mLoops.pop_back();
+    return false;
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const
@@ -1143,7 +1191,7 @@ Reconstruction::Contours Reconstruction::castLevel(int level) const
         if (mLoops[s].empty()) return;
         const SlicePlane plane(mVolume, mPlan, mPositions[s]);
         for (const SliceLoop& l : mLoops[s])
-            contours[s].push_back(l.fromLevel <= level ? castRays(l.view, rays, plane) : Contour{});
+            contours[s].push_back(l.fromLevel <= level ? cut(l, rays, plane) : Contour{});
     });
     addFoldRays(contours, level);
     return contours;
@@ -1166,15 +1214,27 @@ Reconstruction::Contours Reconstruction::refineContours(const Contours& coarse, 
         for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
             const SliceLoop& loop = mLoops[s][l];
             if (!coarse[s][l].crossings.empty())
-                contours[s].push_back(refineContour(coarse[s][l], loop.view, plane));
+                contours[s].push_back(refine(coarse[s][l], loop, coarse[s][l].rays.next(), plane));
             else if (loop.fromLevel <= level)
-                contours[s].push_back(castRays(loop.view, groupRays[loop.group]->next(), plane));
+                contours[s].push_back(cut(loop, groupRays[loop.group]->next(), plane));
             else
                 contours[s].emplace_back();
         }
     });
     addFoldRays(contours, level);
     return contours;
+}
+
+Contour Reconstruction::cut(const SliceLoop& loop, const RaySet& rays, const SlicePlane& plane)
+{
+    return loop.waist ? castPolygon(loop.view, rays) : castRays(loop.view, rays, plane);
+}
+
+Contour Reconstruction::refine(const Contour& coarse, const SliceLoop& loop, const RaySet& rays,
+                               const SlicePlane& plane)
+{
+    // A waist's crossings lie on its polygon, so casting anew gives the coarse ones bit for bit.
+    return loop.waist ? castPolygon(loop.view, rays) : refineContour(coarse, loop.view, rays, plane);
 }
 
 void Reconstruction::addFoldRays(Contours& contours, int level) const
@@ -1226,7 +1286,7 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
             for (std::size_t l = 0; l < mLoops[s].size(); ++l) {
                 const int g = mLoops[s][l].group;
                 if (g >= 0 && grows[g] && !contours[s][l].crossings.empty())
-                    contours[s][l] = refineContour(contours[s][l], mLoops[s][l].view, grown[g], plane);
+                    contours[s][l] = refine(contours[s][l], mLoops[s][l], grown[g], plane);
             }
         });
     }

@@ -22,6 +22,8 @@ struct Reconstruction::SliceLoop {
     int group = -1;         // its tube's ray group (contours tiled together share their rays); -1:
                             // in no tube
     int fromLevel = kNever; // the coarsest level that tiles it; every finer level does too
+    bool waist = false;     // a waist (makeWaist): no field traced it, so rays are cut against
+                            // its polygon
 };
 struct Reconstruction::TubeEnd {
     bool hasApex = false;      // false: the cap is flat, over the contour's own vertices

@@ -423,3 +423,28 @@ TEST(Contour, StrayingChordsAreTheSectorsWhoseEdgesCutCorners)
     EXPECT_TRUE(strayingChords(eight, view, 1.0).empty());
     EXPECT_TRUE(strayingChords(castRays(loops[0], center, RaySet{32, 0}, image), view, 0.5).empty());
 }
+
+// A waist is one loop around walls that touch or lie a little apart: the walls' union traced from
+// the distance to them. Squares of side 4 whose edges lie halfway between pixel centres are traced
+// exactly along their edges, less a corner of half a pixel's legs (1/8 square pixel) at each of
+// their four corners: 15.5 square pixels each.
+TEST(Contour, WaistAroundJoinsWallsIntoOneLoop)
+{
+    auto square = [](double u, double v) {
+        return std::vector<glm::dvec2>{{u, v}, {u + 4.0, v}, {u + 4.0, v + 4.0}, {u, v + 4.0}};
+    };
+    const std::vector<glm::dvec2> a = square(0.5, 0.5), corner = square(4.5, 4.5), apart = square(6.5, 0.5);
+    // Touching at a corner: one loop at once, the two squares and the saddle's pixel between them.
+    const BoundaryLoop touching = waistAround({&a, &corner}, 0.0);
+    ASSERT_FALSE(touching.corners.empty());
+    EXPECT_GE(touching.area, 31.0);
+    EXPECT_LE(touching.area, 32.0);
+    // Two pixels apart: each wall grows by a pixel before they meet; half a pixel is not enough.
+    EXPECT_TRUE(waistAround({&a, &apart}, 0.5).corners.empty());
+    const BoundaryLoop grown = waistAround({&a, &apart}, 2.0);
+    ASSERT_FALSE(grown.corners.empty());
+    EXPECT_FALSE(grown.hole());
+    EXPECT_GT(grown.area, 2.0 * 15.5 + 4.0); // the 2 x 4 gap between them, filled at least halfway
+    for (const std::vector<glm::dvec2>* wall : {&a, &apart})
+        for (const glm::dvec2& p : *wall) EXPECT_TRUE(encloses(grown, p)) << p.x << ", " << p.y;
+}

@@ -13,6 +13,7 @@
 
 #include <array>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <set>
 #include <string>
@@ -55,9 +56,33 @@ const samples::SampleInfo& infoOf(const std::string& name)
     throw std::runtime_error("no sample " + name);
 }
 
-// Every level, refined from the one before: a closed, oriented 2-manifold with the phantom's
-// Euler characteristic and number of surfaces (voids facing into their cavities), equal to the
-// level built from scratch, its vertices a subset of the next level's bit for bit; the events'
+// Every level, refined from the one before, given to `check`: each equal to the level built from
+// scratch, its vertices a subset of the next level's bit for bit. Returns the top level.
+TriangleMesh expectNestedLevels(const Reconstruction& reconstruction,
+                                const std::function<void(const TriangleMesh& mesh)>& check)
+{
+    Refinement refinement(reconstruction);
+    std::set<std::array<double, 3>> coarser;
+    for (int level = 0;; ++level) {
+        SCOPED_TRACE("level " + std::to_string(level));
+        const TriangleMesh& mesh = refinement.mesh().mesh;
+        check(mesh);
+        const TriangleMesh scratch = reconstruction.buildLevel(level).mesh;
+        EXPECT_TRUE(scratch.vertices == mesh.vertices && scratch.triangles == mesh.triangles)
+            << "refining differs from building the level from scratch";
+        std::set<std::array<double, 3>> here;
+        for (const glm::dvec3& p : mesh.vertices) here.insert({p.x, p.y, p.z});
+        long long lost = 0;
+        for (const auto& p : coarser) lost += here.count(p) ? 0 : 1;
+        EXPECT_EQ(lost, 0) << "vertices of the level below that this level lacks";
+        coarser = std::move(here);
+        if (!refinement.canRefine()) return mesh;
+        refinement.refine();
+    }
+}
+
+// Every level nested (expectNestedLevels): a closed, oriented 2-manifold with the phantom's
+// Euler characteristic and number of surfaces (voids facing into their cavities); the events'
 // contributions add up to the same Euler characteristic; the top level lies within one voxel of
 // volumeToMesh's isosurface, both ways.
 void expectIsosurfaceTopology(const std::string& name, int voids = 0, bool withinAVoxel = true)
@@ -69,11 +94,7 @@ void expectIsosurfaceTopology(const std::string& name, int voids = 0, bool withi
     EXPECT_EQ(reconstruction.stats().eventEuler, info.euler);
     EXPECT_EQ(reconstruction.stats().caps - reconstruction.stats().saddles, info.euler);
     EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
-    Refinement refinement(reconstruction);
-    std::set<std::array<double, 3>> coarser;
-    for (int level = 0;; ++level) {
-        SCOPED_TRACE("level " + std::to_string(level));
-        const TriangleMesh& mesh = refinement.mesh().mesh;
+    const TriangleMesh top = expectNestedLevels(reconstruction, [&](const TriangleMesh& mesh) {
         const Topology t = checkTopology(mesh);
         EXPECT_TRUE(t.closed()) << t.boundaryEdges << " boundary edges";
         EXPECT_TRUE(t.manifold()) << t.nonManifoldEdges << " non-manifold edges, " << t.nonManifoldVertices
@@ -84,20 +105,9 @@ void expectIsosurfaceTopology(const std::string& name, int voids = 0, bool withi
         int inward = 0;
         for (double v : shellVolumes(mesh)) inward += v < 0.0 ? 1 : 0;
         EXPECT_EQ(inward, voids);
-        const TriangleMesh scratch = reconstruction.buildLevel(level).mesh;
-        EXPECT_TRUE(scratch.vertices == mesh.vertices && scratch.triangles == mesh.triangles)
-            << "refining differs from building the level from scratch";
-        std::set<std::array<double, 3>> here;
-        for (const glm::dvec3& p : mesh.vertices) here.insert({p.x, p.y, p.z});
-        long long lost = 0;
-        for (const auto& p : coarser) lost += here.count(p) ? 0 : 1;
-        EXPECT_EQ(lost, 0) << "vertices of the level below that this level lacks";
-        coarser = std::move(here);
-        if (!refinement.canRefine()) break;
-        refinement.refine();
-    }
+    });
     if (!withinAVoxel) return;
-    const Validation v = Validator(volume).validate(refinement.mesh().mesh);
+    const Validation v = Validator(volume).validate(top);
     EXPECT_LE(v.symmetric.max, 1.0 * v.voxel);
     EXPECT_EQ(v.topology.euler, info.euler);
 }
@@ -367,6 +377,46 @@ TEST(Graph, RingSectorsAndSliversAreTiledByTheIntegerBand)
 TEST(Graph, DISABLED_KnownGapClockwisePartsAreTiledByTheIntegerBand)
 {
     EXPECT_EQ(areaJunctionParts("trifurcation"), 0);
+}
+
+// A piece of Gaffer's smoke: fog voxels barely denser than the isovalue, meeting along voxel edges.
+// Within one voxel slab the slab's labelling joins walls 2:2 (and 3:2, 1:4 ...) where no plane
+// between the voxel planes parts the saddles; such a piece passes through a waist (makeWaist), a
+// merge into one contour in the slab's middle and a fork out of it, so that it is a sphere with
+// n + m holes as the labelling counts it. With nothing left unresolved, every level (nested) then
+// has the events' sum for its Euler characteristic (each piece's 2 - a - b): 44 here, where the
+// 2:2 piece capped one by one gave 4 caps instead of -2 (52). volumeToMesh's isosurface of the
+// crop has 56 (the labelling's gap: see the known gap below).
+TEST(Graph, SlabsBisectionCannotPartPassThroughAWaist)
+{
+    test::TempDir dir;
+    const std::string smoke = test::realData("gaffer_smoke_fog.vdb"), path = dir.path("crop.vdb");
+    test::writeCroppedVdb(smoke, path, {36, 43, 49}, {49, 52, 61});
+    VolumeOptions read;
+    read.iso = readVolume(smoke).iso(); // the whole smoke's, not the crop's own default
+    const Reconstruction reconstruction(readVolume(path, read), MeshOptions{});
+    const ReconstructionStats& stats = reconstruction.stats();
+    EXPECT_GE(stats.waists, 1);
+    EXPECT_EQ(stats.unresolvedEvents + stats.unresolvedJunctions, 0);
+    expectNestedLevels(reconstruction, [&](const TriangleMesh& mesh) {
+        const Topology t = checkTopology(mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+        EXPECT_EQ(t.euler, stats.eventEuler);
+    });
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): Gaffer's smoke as a whole. Its slabs' labelling sums to
+// Euler characteristic 402 where volumeToMesh's isosurface has 384 (handles inside one voxel slab,
+// which counting a piece's loops cannot see), 10 pieces (walls with holes, n:m) and 9 forks and
+// merges stay capped, and its levels have Euler characteristic 580 and 300 components against the
+// isosurface's 384 and 231.
+TEST(Graph, DISABLED_KnownGapTheSmokeHasTheIsosurfaceTopology)
+{
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    const Topology t = checkTopology(Reconstruction(volume, MeshOptions{}).buildLevel(0).mesh);
+    EXPECT_EQ(t.euler, reference.euler);
+    EXPECT_EQ(t.components, reference.components);
 }
 
 TEST(Graph, BaselineTilersCloseEveryLevelToo)

@@ -537,6 +537,31 @@ void writeFogVoxelsVdb(const std::string& path, const glm::ivec3& dims,
     writeGridsVdb(path, {grid});
 }
 
+void writeCroppedVdb(const std::string& source, const std::string& path, const glm::ivec3& lo, const glm::ivec3& hi)
+{
+    openvdb::initialize();
+    openvdb::io::File file(source);
+    file.open();
+    openvdb::FloatGrid::Ptr grid;
+    for (auto name = file.beginName(); name != file.endName() && !grid; ++name)
+        grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid(name.gridName()));
+    file.close();
+    if (!grid) throw std::runtime_error("no float grid in " + source);
+    const openvdb::FloatGrid::Ptr crop = openvdb::FloatGrid::create(grid->background());
+    crop->setName(grid->getName());
+    crop->setGridClass(grid->getGridClass());
+    crop->setTransform(grid->transform().copy());
+    auto from = grid->getConstAccessor();
+    auto to = crop->getAccessor();
+    for (int i = lo.x; i <= hi.x; ++i)
+        for (int j = lo.y; j <= hi.y; ++j)
+            for (int k = lo.z; k <= hi.z; ++k) {
+                const openvdb::Coord ijk(i, j, k);
+                if (from.isValueOn(ijk)) to.setValue(ijk, from.getValue(ijk));
+            }
+    writeGridsVdb(path, {crop});
+}
+
 void writeTubeFogVdb(const std::string& path, double hotValue)
 {
     openvdb::initialize();

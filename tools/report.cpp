@@ -101,6 +101,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"merges", stats.merges},
           {"saddles", stats.saddles},
           {"rims", stats.rims},
+          {"waists", stats.waists},
           {"unresolved", stats.unresolvedEvents},
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},

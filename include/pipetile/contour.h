@@ -163,6 +163,14 @@ LoopView viewFrom(const BoundaryLoop& loop, const glm::dvec2& center);
 /// closed through its hub), given in contour order, counterclockwise around `center`.
 LoopView viewOfPolygon(std::vector<glm::dvec2> polygon, const glm::dvec2& center);
 
+/// A waist: one loop around several walls of one plane's (u, v) (an n:m slab piece's contours,
+/// both planes; graph.h), for the piece to pass through where its saddles lie too close together
+/// for planes to part them. The boundary of the union of their insides, traced from the signed
+/// distance to them at the pixel centres, grown by half a pixel at a time until it is one region
+/// (at most `maxGrowth` pixels); holes in it are filled. Empty (no corners) if the walls stay
+/// apart.
+BoundaryLoop waistAround(const std::vector<const std::vector<glm::dvec2>*>& walls, double maxGrowth);
+
 /// Signed area of a polygon, pixels^2: > 0 counterclockwise.
 double polygonArea(const std::vector<glm::dvec2>& polygon);
 

@@ -92,6 +92,8 @@ struct ReconstructionStats {
     int saddles = 0;               // of which saddles: n - 1 per 1:n or n:1 junction
     int starts = 0, ends = 0;      // slab pieces where a tube begins (0:1) or ends (1:0)
     int rims = 0;                  // pieces where a wall and its hole end together
+    int waists = 0;                // n:m pieces of walls (n, m >= 2) that bisection could not part:
+                                   // a merge into a contour in the slab's middle, then a fork
     int unresolvedEvents = 0;      // pieces of any other pattern: their contours are capped one by
                                    // one, so the mesh's topology differs from the isosurface there
     int unresolvedJunctions = 0;   // forks and merges whose contours could not be split into one
@@ -200,6 +202,11 @@ private:
     struct Junction;
     struct SliceCounts;
 
+    /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
+    /// (no field traced it); refined from `coarse` likewise.
+    static Contour cut(const SliceLoop& loop, const RaySet& rays, const SlicePlane& plane);
+    static Contour refine(const Contour& coarse, const SliceLoop& loop, const RaySet& rays, const SlicePlane& plane);
+
     // The stages of the constructor, in order.
     std::vector<SliceLoop> traceContours(double w, SliceCounts& counts) const;
     /// The finest level's ray count, at most 256 (the cost of comparing profiles grows with it).
@@ -208,6 +215,11 @@ private:
     void correspond();
     void resolveEvents();
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
+    /// An n:m piece of walls (n, m >= 2) as a merge into a waist contour in the slab's middle
+    /// plane (contour.h, waistAround), then a fork out of it: a genus-0 piece with n + m loops,
+    /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
+    /// loops make no waist or either junction does not split.
+    bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
     bool splitJunction(Junction& junction) const;
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
