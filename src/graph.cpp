@@ -134,18 +134,25 @@ std::vector<OwnerRun> ownerRuns(const std::vector<glm::dvec2>& polygon,
 }
 
 // Gives the shortest run to its neighbours (a few points owned by a third partner across a narrow
-// gap, say) until `done` holds or two runs are left.
+// gap, say) until `done` holds or two runs are left. A partner's last run stays: every way the
+// arcs close needs each partner to own one.
 template <class Done>
 void mergeShortestRuns(std::vector<OwnerRun>& runs, const Done& done)
 {
+    std::map<int, int> runsOf;
+    for (const OwnerRun& run : runs) ++runsOf[run.owner];
     while (runs.size() > 2 && !done(runs)) {
-        std::size_t shortest = 0;
-        for (std::size_t r = 1; r < runs.size(); ++r)
-            if (runs[r].length < runs[shortest].length) shortest = r;
+        std::size_t shortest = runs.size();
+        for (std::size_t r = 0; r < runs.size(); ++r)
+            if (runsOf[runs[r].owner] > 1 && (shortest == runs.size() || runs[r].length < runs[shortest].length))
+                shortest = r;
+        if (shortest == runs.size()) return;
+        --runsOf[runs[shortest].owner];
         const std::size_t previous = (shortest + runs.size() - 1) % runs.size(), next = (shortest + 1) % runs.size();
         runs[previous].length += runs[shortest].length;
         if (runs[next].owner == runs[previous].owner && next != previous) {
             runs[previous].length += runs[next].length;
+            --runsOf[runs[next].owner];
             runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::max(shortest, next)));
             runs.erase(runs.begin() + static_cast<std::ptrdiff_t>(std::min(shortest, next)));
         } else {
