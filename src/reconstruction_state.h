@@ -22,8 +22,8 @@ struct Reconstruction::SliceLoop {
     int group = -1;         // its tube's ray group (contours tiled together share their rays); -1:
                             // in no tube
     int fromLevel = kNever; // the coarsest level that tiles it; every finer level does too
-    bool waist = false;     // a waist (makeWaist): no field traced it, so rays are cut against
-                            // its polygon
+    bool onPolygon = false; // no field traced it (a waist, makeWaist; a contour carried to a
+                            // slab's middle, meetHalfway): rays are cut against its polygon
 };
 struct Reconstruction::TubeEnd {
     bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
@@ -34,6 +34,9 @@ struct Reconstruction::TubeEnd {
     int annulus = -1;          // an outer wall's end: the hole tube whose end, in the same
                                // plane, it joins by an annulus (a hollow pipe's rim); a hole
                                // tube's end: the outer tube that closes it so. -1: a cap
+    bool goesOn = false;       // the object goes on past it: a piece of the slab that no
+                               // construction resolved (its loops are capped one by one)
+    double wBound = 0.0;       // how far its end contours and apex may go (closeEnds)
 };
 struct Reconstruction::Tube {
     std::vector<std::pair<int, int>> members; // (slice, loop) from first to last slice
