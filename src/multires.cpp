@@ -112,8 +112,8 @@ constexpr int kMostEndContours = 8;
 // The graph ends a tube inside the slab up to the next plane: what the axis meets more than half a
 // voxel past that plane is another piece's region (the labelling parts them where the field along
 // one line does not), and end contours that followed it stacked 8 deep inside the smoke's blob.
-// The half voxel lets an apex touch the next plane, or a flat end lie in it; end contours stay a
-// quarter voxel short of it (addEndContour).
+// The half voxel lets an apex touch the next plane, or a flat end lie in it (with less, 16 of the
+// phantoms' meshes changed).
 constexpr double kPastNextPlane = 0.5;
 
 // How far past a tube's last contour its end is sought: a slice spacing and two voxels.
@@ -935,7 +935,8 @@ void Reconstruction::closeEnds()
             // Where the object goes on, the region past the plane is another tube's, and end
             // contours sought in it would stack inside the solid (the smoke at iso 0.1: walls
             // capped at unresolved pieces ran 8 end contours, 16 voxels, into the blob, and the
-            // mesh's volume was 40 times the isosurface's); the cap stays flat on the plane.
+            // mesh's volume was 40 times the isosurface's); the contour meets the other side's
+            // halfway instead, under a flat cap.
             const TubeEnd& end = top ? tube.top : tube.bottom;
             if (end.goesOn) meetHalfway(tube, top);
             if (end.junction >= 0 || end.goesOn) continue;
@@ -1291,7 +1292,8 @@ Contour Reconstruction::cut(const SliceLoop& loop, const RaySet& rays, const Sli
 Contour Reconstruction::refine(const Contour& coarse, const SliceLoop& loop, const RaySet& rays,
                                const SlicePlane& plane)
 {
-    // A waist's crossings lie on its polygon, so casting anew gives the coarse ones bit for bit.
+    // Crossings on a polygon (a waist, a contour carried to a slab's middle) are cast anew: that
+    // gives the coarse ones bit for bit.
     return loop.onPolygon ? castPolygon(loop.view, rays) : refineContour(coarse, loop.view, rays, plane);
 }
 

@@ -237,13 +237,13 @@ private:
     void followBack(const Tube& tube, std::size_t k);
     SliceLoop& memberLoop(const Tube& tube, std::size_t k);
     void closeEnds();
-    /// How far past plane w (toward +w for direction 1, -w for -1) an end may lie: up to the
-    /// next plane of the graph, whose slab holds the end; infinite past the last plane.
+    /// How far the next plane of the graph lies past plane w (toward +w for direction 1, -w for
+    /// -1): the slab that holds an end there; infinite past the last plane.
     double roomPast(double w, double direction) const;
     /// Adds `loop`, traced on plane w, as the tube's new last (top) or first member.
     void appendEndContour(Tube& tube, bool top, double w, SliceLoop loop);
-    /// Where the object goes on past the tube's end: the contour in the middle of the slab ahead,
-    /// where the tubes on its other side meet it, becomes the tube's end.
+    /// Where the object goes on past the tube's end: its end contour, carried unchanged to the
+    /// middle of the slab ahead, where the tubes on the other side meet it, becomes its end.
     void meetHalfway(Tube& tube, bool top);
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
     /// false if it added none.
