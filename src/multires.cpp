@@ -116,6 +116,32 @@ constexpr int kMostEndContours = 8;
 // phantoms' meshes changed).
 constexpr double kPastNextPlane = 0.5;
 
+// The middle of the chord that closes a gap's arc, from cut `from` to cut `to` of `polygon`;
+// `sign` is -1 where the part runs the other way round (a hole's part of a wall). The chord's
+// midpoint, unless the arc bends past it (a gap opening onto a contour that runs nearly straight:
+// the trifurcation's 2-pixel holes between its branches): the part of arc and midpoint would run
+// clockwise, wind around no point, and take no ray. There the middle moves off the chord, half a
+// pixel past the arc's farthest point, so that the part encloses room for its partner's rays.
+glm::dvec2 gapMiddle(const std::vector<glm::dvec2>& polygon, int from, int to, double sign)
+{
+    constexpr double kPastArc = 0.5; // pixels
+    const glm::dvec2 first = polygon[static_cast<std::size_t>(from)], last = polygon[static_cast<std::size_t>(to)];
+    const glm::dvec2 middle = 0.5 * (first + last);
+    std::vector<glm::dvec2> part;
+    for (std::size_t p = static_cast<std::size_t>(from);; p = (p + 1) % polygon.size()) {
+        part.push_back(polygon[p]);
+        if (p == static_cast<std::size_t>(to)) break;
+    }
+    part.push_back(middle);
+    const glm::dvec2 chord = first - last;
+    if (sign * polygonArea(part) > 0.0 || glm::length(chord) == 0.0) return middle;
+    // The direction in which moving the middle adds area to the part as it runs.
+    const glm::dvec2 away = sign * glm::dvec2(chord.y, -chord.x) / glm::length(chord);
+    double past = 0.0;
+    for (const glm::dvec2& q : part) past = std::max(past, glm::dot(q - middle, away));
+    return middle + (past + kPastArc) * away;
+}
+
 // How far past a tube's last contour its end is sought: a slice spacing and two voxels.
 double endReach(const MeshOptions& options)
 {
@@ -571,8 +597,15 @@ bool Reconstruction::splitJunction(Junction& junction) const
         if (!inner && arcs[junction.owner[a]] != 1) continue;
         const std::size_t b = (a + 1) % n;
         junction.chordArcs.push_back(static_cast<int>(a));
-        addSaddleNode(
-            0.5 * (polygon[junction.cuts[b]] + (inner ? (*inner)[junction.innerCuts[b]] : polygon[junction.cuts[a]])));
+        if (inner) {
+            addSaddleNode(0.5 * (polygon[junction.cuts[b]] + (*inner)[junction.innerCuts[b]]));
+            continue;
+        }
+        const bool reversed =
+            mLoops[junction.many[junction.owner[a]].first][junction.many[junction.owner[a]].second].loop.hole() !=
+                mLoops[junction.single.first][junction.single.second].loop.hole() &&
+            junction.kind != EventKind::Rim;
+        addSaddleNode(gapMiddle(polygon, junction.cuts[a], junction.cuts[b], reversed ? -1.0 : 1.0));
     }
     composeParts(junction);
     return true;
