@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -466,6 +467,76 @@ TEST(Graph, DISABLED_KnownGapTheSmokeHasTheIsosurfaceTopology)
     const Topology t = checkTopology(Reconstruction(volume, MeshOptions{}).buildLevel(0).mesh);
     EXPECT_EQ(t.euler, reference.euler);
     EXPECT_EQ(t.components, reference.components);
+}
+
+namespace {
+
+struct Capsule {
+    glm::dvec3 a, b;
+    double radius;
+};
+
+// The level set of a union of capsules, voxels of 1 on [0, 112)^3.
+Volume capsuleUnion(const std::vector<Capsule>& capsules, const std::string& source)
+{
+    return samples::levelSetFromDistance(
+        [&](const glm::dvec3& p) {
+            double d = std::numeric_limits<double>::infinity();
+            for (const Capsule& c : capsules) {
+                const glm::dvec3 ab = c.b - c.a;
+                const double t = std::clamp(glm::dot(p - c.a, ab) / glm::dot(ab, ab), 0.0, 1.0);
+                d = std::min(d, glm::length(p - (c.a + t * ab)) - c.radius);
+            }
+            return d;
+        },
+        {112, 112, 112}, 1.0, source);
+}
+
+} // namespace
+
+// Known gap (CMakeLists.txt, WILL_FAIL): random capsule trees whose branches run into each other.
+// Three generations (radii 7, 5.25, 3.94; 2 or 3 children each, directions drawn at random, seeds
+// 0 and 1 of a numpy generator, rounded to a tenth of a voxel). Branches that overlap by up to 6
+// voxels close loops, and where three of them nearly meet the gaps between them are tunnels a voxel
+// or two across. Nothing is unresolved and no warning is given, yet in each tree the slabs'
+// labelling misses one tunnel: Euler characteristic 2 where volumeToMesh's isosurface has 0 (tree
+// 0), 0 where it has -2 (tree 1), one component each. The labelling's count of handles at the voxel
+// scale is the same gap as the smoke's (below). Found with twelve such trees, made from the dense
+// distance field: 4 had the wrong topology, 3 of them with a ring merge (two walls joining into a
+// wall and its hole within half a voxel) capped and warned about.
+TEST(Graph, DISABLED_KnownGapRandomTreesWhoseBranchesCrossHaveTheIsosurfaceTopology)
+{
+    const std::vector<std::vector<Capsule>> trees = {{{{56, 56, 10}, {56, 56, 39.6}, 7.0},
+                                                      {{56, 56, 39.6}, {68.5, 58.1, 62.7}, 5.25},
+                                                      {{68.5, 58.1, 62.7}, {86.1, 67.4, 70.1}, 3.94},
+                                                      {{68.5, 58.1, 62.7}, {69.1, 59.7, 77}, 3.94},
+                                                      {{56, 56, 39.6}, {40.7, 47, 54}, 5.25},
+                                                      {{40.7, 47, 54}, {41.3, 42, 72.5}, 3.94},
+                                                      {{40.7, 47, 54}, {31.7, 52.1, 73.1}, 3.94},
+                                                      {{56, 56, 39.6}, {45.8, 50.9, 61}, 5.25},
+                                                      {{45.8, 50.9, 61}, {39.4, 47.3, 77.6}, 3.94},
+                                                      {{45.8, 50.9, 61}, {42.8, 39.2, 78.5}, 3.94}},
+                                                     {{{56, 56, 10}, {56, 56, 38.1}, 7.0},
+                                                      {{56, 56, 38.1}, {58.4, 46.4, 57.4}, 5.25},
+                                                      {{58.4, 46.4, 57.4}, {55.7, 46, 71.4}, 3.94},
+                                                      {{58.4, 46.4, 57.4}, {62.9, 44.4, 76.9}, 3.94},
+                                                      {{58.4, 46.4, 57.4}, {55, 46.1, 74.2}, 3.94},
+                                                      {{56, 56, 38.1}, {47.7, 53.3, 56.5}, 5.25},
+                                                      {{47.7, 53.3, 56.5}, {50.2, 36, 61.7}, 3.94},
+                                                      {{47.7, 53.3, 56.5}, {40.4, 53.4, 69.5}, 3.94},
+                                                      {{56, 56, 38.1}, {48.5, 53.5, 63.3}, 5.25},
+                                                      {{48.5, 53.5, 63.3}, {52.7, 43, 72.5}, 3.94},
+                                                      {{48.5, 53.5, 63.3}, {45.8, 40.5, 72.5}, 3.94}}};
+    for (std::size_t k = 0; k < trees.size(); ++k) {
+        SCOPED_TRACE("tree " + std::to_string(k));
+        const Volume volume = capsuleUnion(trees[k], "capsule tree");
+        const Topology reference = checkTopology(isosurface(volume, 0.0));
+        const Reconstruction reconstruction(volume, MeshOptions{});
+        EXPECT_EQ(reconstruction.stats().eventEuler, reference.euler);
+        const Topology t = checkTopology(reconstruction.buildLevel(0).mesh);
+        EXPECT_EQ(t.euler, reference.euler);
+        EXPECT_EQ(t.components, reference.components);
+    }
 }
 
 TEST(Graph, BaselineTilersCloseEveryLevelToo)
