@@ -9,13 +9,16 @@
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <unordered_map>
 
 namespace pipetile {
 
@@ -211,6 +214,175 @@ TriangleMesh isosurface(const Volume& volume, double adaptivity, double* seconds
     }
     if (seconds) *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return mesh;
+}
+
+namespace {
+
+namespace vtm = openvdb::tools::volume_to_mesh_internal;
+
+// The face a cell shares with its neighbour one step along x, y or z: for each of the face's four
+// edges, its number in the cell's table row and in the neighbour's (VolumeToMesh.h numbers a
+// cell's edges 1 to 12).
+constexpr int kFaceEdges[3][4][2] = {
+    {{2, 4}, {10, 9}, {6, 8}, {11, 12}}, // x: the cell's corners 1, 2, 5, 6 are the neighbour's 0, 3, 4, 7
+    {{5, 1}, {6, 2}, {7, 3}, {8, 4}},    // y: 4, 5, 6, 7 are 0, 1, 2, 3
+    {{3, 1}, {11, 10}, {7, 5}, {12, 9}}, // z: 2, 3, 6, 7 are 0, 1, 4, 5
+};
+// The edges leaving corner 0 along x, y and z: every grid edge is one cell's.
+constexpr int kCornerEdges[3] = {1, 9, 4};
+// VolumeToMesh.h's corner order: corner n lies at the cell's origin plus this.
+constexpr int kCorners[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}, {0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1}};
+
+// Whether every voxel of a block of 8^3 lies below the iso value (1), none does (0), or some (2).
+using BlockSign = std::uint8_t;
+constexpr BlockSign kMixed = 2;
+
+// The values below iso around one leaf, [-1, 9]^3 about its origin, read through the leaves there
+// (or the constant tile or background where there is none): the corners of every cell whose
+// origin lies in [-1, 8]^3.
+struct CellBlock {
+    openvdb::Coord origin;
+    const openvdb::FloatTree::LeafNodeType* leaves[27] = {}; // blocks -1..1 along x, y, z
+    std::uint32_t rows[11][11] = {};                         // [x + 1][y + 1], bit z + 1: below iso
+    static int block(int local) { return local < 0 ? 0 : local < 8 ? 1 : 2; }
+    std::uint32_t row(int x, int y) const { return rows[x + 1][y + 1]; }
+    const openvdb::FloatTree::LeafNodeType* leafAt(int x, int y, int z) const
+    {
+        return leaves[(block(x) * 3 + block(y)) * 3 + block(z)];
+    }
+    CellBlock(const openvdb::FloatGrid::ConstAccessor& accessor, const openvdb::Coord& leafOrigin, float iso)
+        : origin(leafOrigin)
+    {
+        float constant[27];
+        for (int b = 0; b < 27; ++b) {
+            const openvdb::Coord corner =
+                origin + openvdb::Coord(8 * (b / 9 - 1), 8 * (b / 3 % 3 - 1), 8 * (b % 3 - 1));
+            leaves[b] = accessor.probeConstLeaf(corner);
+            constant[b] = accessor.getValue(corner);
+        }
+        for (int x = -1; x <= 9; ++x)
+            for (int y = -1; y <= 9; ++y) {
+                const int bxy = (block(x) * 3 + block(y)) * 3;
+                const openvdb::Index base = ((x & 7) << 6) | ((y & 7) << 3);
+                std::uint32_t bits = 0;
+                for (int z = -1; z <= 9; ++z) {
+                    const int b = bxy + block(z);
+                    const float value = leaves[b] ? leaves[b]->getValue(base | (z & 7)) : constant[b];
+                    bits |= static_cast<std::uint32_t>(vtm::isInsideValue(value, iso)) << (z + 1);
+                }
+                rows[x + 1][y + 1] = bits;
+            }
+    }
+    // A cell's sign bits as volumeToMesh reads them, with an ambiguous face's signs complemented
+    // where the neighbour across it is ambiguous there too (read through the accessor: rare).
+    std::uint8_t signs(int x, int y, int z, const openvdb::FloatGrid::ConstAccessor& accessor, float iso) const
+    {
+        std::uint8_t s = 0;
+        for (int n = 0; n < 8; ++n)
+            s |= static_cast<std::uint8_t>(
+                ((row(x + kCorners[n][0], y + kCorners[n][1]) >> (z + 1 + kCorners[n][2])) & 1) << n);
+        if (s != 0 && s != 0xFF && vtm::sAmbiguousFace[s] != 0)
+            vtm::correctCellSigns(s, vtm::sAmbiguousFace[s], accessor, origin + openvdb::Coord(x, y, z), iso);
+        return s;
+    }
+};
+
+BlockSign blockSign(const openvdb::FloatTree::LeafNodeType& leaf, float iso)
+{
+    bool some = false, all = true;
+    for (auto it = leaf.cbeginValueAll(); it; ++it) {
+        const bool b = vtm::isInsideValue(*it, iso);
+        some = some || b;
+        all = all && b;
+    }
+    return all ? 1 : some ? kMixed : 0;
+}
+
+} // namespace
+
+long long isosurfaceEuler(const Volume& volume)
+{
+    const openvdb::FloatGrid& grid = gridOf(volume);
+    const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
+    const float iso = static_cast<float>(volume.iso());
+    const openvdb::FloatTree& tree = grid.tree();
+    // A block is all below, all above, or mixed: a leaf whose block and its 26 neighbours agree
+    // has no crossing cell, and most of a level set's narrow band is such leaves.
+    std::unordered_map<openvdb::Coord, BlockSign> signOf;
+    for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) signOf.emplace(leaf->origin(), blockSign(*leaf, iso));
+    auto neighbourSign = [&](const openvdb::Coord& origin) -> BlockSign {
+        const auto it = signOf.find(origin);
+        return it != signOf.end() ? it->second : vtm::isInsideValue(accessor.getValue(origin), iso);
+    };
+    std::vector<const openvdb::FloatTree::LeafNodeType*> crossed;
+    for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
+        const openvdb::Coord origin = leaf->origin();
+        const BlockSign own = signOf[origin];
+        bool uniform = own != kMixed;
+        for (int b = 0; b < 27 && uniform; ++b)
+            uniform =
+                neighbourSign(origin + openvdb::Coord(8 * (b / 9 - 1), 8 * (b / 3 % 3 - 1), 8 * (b % 3 - 1))) == own;
+        if (!uniform) crossed.push_back(&*leaf);
+    }
+    // V, E and F, summed over the leaves in parallel (an accessor per task: they are not shared).
+    using Counts = std::array<long long, 3>;
+    const Counts counts = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, crossed.size()), Counts{0, 0, 0},
+        [&](const tbb::blocked_range<std::size_t>& range, Counts sum) {
+            const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
+            auto& [vertices, edges, faces] = sum;
+            for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                const openvdb::FloatTree::LeafNodeType* leaf = crossed[i];
+                const openvdb::Coord origin = leaf->origin();
+                const CellBlock cells(accessor, origin, iso);
+                for (int x = -1; x < 8; ++x)
+                    for (int y = -1; y < 8; ++y) {
+                        // The cells of this row along z whose corners are not all on one side.
+                        const std::uint32_t r0 = cells.row(x, y), r1 = cells.row(x + 1, y), r2 = cells.row(x, y + 1),
+                                            r3 = cells.row(x + 1, y + 1);
+                        const std::uint32_t any = r0 | r1 | r2 | r3, all = r0 & r1 & r2 & r3;
+                        std::uint32_t crossing = ((any | any >> 1) & ~(all & all >> 1)) & 0x1FF; // z = -1..7
+                        for (; crossing != 0; crossing &= crossing - 1) {
+                            const int z = __builtin_ctz(crossing) - 1;
+                            // A cell belongs to the leaf of its first corner that lies in one (every
+                            // crossing lies in a leaf: the volume's active tiles are voxelized).
+                            if (x < 0 || y < 0 || z < 0) {
+                                int n = 0;
+                                while (n < 8 &&
+                                       !cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2]))
+                                    ++n;
+                                if (n == 8 ||
+                                    cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2]) != leaf)
+                                    continue;
+                            }
+                            const std::uint8_t signs = cells.signs(x, y, z, accessor, iso);
+                            vertices += vtm::sEdgeGroupTable[signs][0];
+                            for (int axis = 0; axis < 3; ++axis) {
+                                if (vtm::sEdgeGroupTable[signs][kCornerEdges[axis]] != 0) ++faces;
+                                // Groups of this cell and the next joined across their face, each pair once.
+                                int pairs[4], count = 0;
+                                std::uint8_t next = 0;
+                                for (const auto& edge : kFaceEdges[axis]) {
+                                    const int mine = vtm::sEdgeGroupTable[signs][edge[0]];
+                                    if (mine == 0) continue;
+                                    if (count == 0)
+                                        next = cells.signs(x + (axis == 0), y + (axis == 1), z + (axis == 2), accessor,
+                                                           iso);
+                                    const int pair = mine * 16 + vtm::sEdgeGroupTable[next][edge[1]];
+                                    if (std::find(pairs, pairs + count, pair) == pairs + count) pairs[count++] = pair;
+                                }
+                                edges += count;
+                            }
+                        }
+                    }
+            }
+            return sum;
+        },
+        [](Counts a, const Counts& b) {
+            for (int k = 0; k < 3; ++k) a[k] += b[k];
+            return a;
+        });
+    return counts[0] - counts[1] + counts[2];
 }
 
 std::vector<glm::dvec3> errorColors(const std::vector<double>& distances, double redAt)

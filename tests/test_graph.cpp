@@ -494,39 +494,61 @@ Volume capsuleUnion(const std::vector<Capsule>& capsules, const std::string& sou
 
 } // namespace
 
-// Known gap (CMakeLists.txt, WILL_FAIL): random capsule trees whose branches run into each other.
-// Three generations (radii 7, 5.25, 3.94; 2 or 3 children each, directions drawn at random, seeds
-// 0 and 1 of a numpy generator, rounded to a tenth of a voxel). Branches that overlap by up to 6
-// voxels close loops, and where three of them nearly meet the gaps between them are tunnels a voxel
-// or two across. Nothing is unresolved and no warning is given, yet in each tree the slabs'
-// labelling misses one tunnel: Euler characteristic 2 where volumeToMesh's isosurface has 0 (tree
-// 0), 0 where it has -2 (tree 1), one component each. The labelling's count of handles at the voxel
-// scale is the same gap as the smoke's (below). Found with twelve such trees, made from the dense
-// distance field: 4 had the wrong topology, 3 of them with a ring merge (two walls joining into a
-// wall and its hole within half a voxel) capped and warned about.
+namespace {
+
+// Three generations of capsules (radii 7, 5.25, 3.94; 2 or 3 children each, directions drawn at
+// random, seeds 0 and 1 of a numpy generator, rounded to a tenth of a voxel) whose branches run
+// into each other: overlaps of up to 6 voxels close loops, and where three nearly meet the gaps
+// between them are tunnels a voxel or two across.
+const std::vector<std::vector<Capsule>>& crossingTrees()
+{
+    static const std::vector<std::vector<Capsule>> trees = {{{{56, 56, 10}, {56, 56, 39.6}, 7.0},
+                                                             {{56, 56, 39.6}, {68.5, 58.1, 62.7}, 5.25},
+                                                             {{68.5, 58.1, 62.7}, {86.1, 67.4, 70.1}, 3.94},
+                                                             {{68.5, 58.1, 62.7}, {69.1, 59.7, 77}, 3.94},
+                                                             {{56, 56, 39.6}, {40.7, 47, 54}, 5.25},
+                                                             {{40.7, 47, 54}, {41.3, 42, 72.5}, 3.94},
+                                                             {{40.7, 47, 54}, {31.7, 52.1, 73.1}, 3.94},
+                                                             {{56, 56, 39.6}, {45.8, 50.9, 61}, 5.25},
+                                                             {{45.8, 50.9, 61}, {39.4, 47.3, 77.6}, 3.94},
+                                                             {{45.8, 50.9, 61}, {42.8, 39.2, 78.5}, 3.94}},
+                                                            {{{56, 56, 10}, {56, 56, 38.1}, 7.0},
+                                                             {{56, 56, 38.1}, {58.4, 46.4, 57.4}, 5.25},
+                                                             {{58.4, 46.4, 57.4}, {55.7, 46, 71.4}, 3.94},
+                                                             {{58.4, 46.4, 57.4}, {62.9, 44.4, 76.9}, 3.94},
+                                                             {{58.4, 46.4, 57.4}, {55, 46.1, 74.2}, 3.94},
+                                                             {{56, 56, 38.1}, {47.7, 53.3, 56.5}, 5.25},
+                                                             {{47.7, 53.3, 56.5}, {50.2, 36, 61.7}, 3.94},
+                                                             {{47.7, 53.3, 56.5}, {40.4, 53.4, 69.5}, 3.94},
+                                                             {{56, 56, 38.1}, {48.5, 53.5, 63.3}, 5.25},
+                                                             {{48.5, 53.5, 63.3}, {52.7, 43, 72.5}, 3.94},
+                                                             {{48.5, 53.5, 63.3}, {45.8, 40.5, 72.5}, 3.94}}};
+    return trees;
+}
+
+} // namespace
+
+TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
+{
+    // The check the tool warns by (Cli.WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss): on trees whose
+    // tunnels are voxels across, the cells' count is volumeToMesh's mesh's Euler characteristic.
+    for (const std::vector<Capsule>& tree : crossingTrees()) {
+        const Volume volume = capsuleUnion(tree, "capsule tree");
+        EXPECT_EQ(isosurfaceEuler(volume), checkTopology(isosurface(volume, 0.0)).euler);
+    }
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): the crossing trees above. Nothing is unresolved, yet in
+// each tree the slabs' labelling misses one tunnel: Euler characteristic 2 where volumeToMesh's
+// isosurface has 0 (tree 0), 0 where it has -2 (tree 1), one component each. Seen in tree 1: three
+// voxels around one corner of a cell, each pair touching along a voxel edge and joined, close a loop
+// within one slab a voxel thick that no contour shows. The tool warns (the cells' count differs),
+// but builds no handle. The same gap as the smoke's (below). Found with twelve such trees, made
+// from the dense distance field: 4 had the wrong topology, 3 of them with a ring merge (two walls
+// joining into a wall and its hole within half a voxel) capped and warned about.
 TEST(Graph, DISABLED_KnownGapRandomTreesWhoseBranchesCrossHaveTheIsosurfaceTopology)
 {
-    const std::vector<std::vector<Capsule>> trees = {{{{56, 56, 10}, {56, 56, 39.6}, 7.0},
-                                                      {{56, 56, 39.6}, {68.5, 58.1, 62.7}, 5.25},
-                                                      {{68.5, 58.1, 62.7}, {86.1, 67.4, 70.1}, 3.94},
-                                                      {{68.5, 58.1, 62.7}, {69.1, 59.7, 77}, 3.94},
-                                                      {{56, 56, 39.6}, {40.7, 47, 54}, 5.25},
-                                                      {{40.7, 47, 54}, {41.3, 42, 72.5}, 3.94},
-                                                      {{40.7, 47, 54}, {31.7, 52.1, 73.1}, 3.94},
-                                                      {{56, 56, 39.6}, {45.8, 50.9, 61}, 5.25},
-                                                      {{45.8, 50.9, 61}, {39.4, 47.3, 77.6}, 3.94},
-                                                      {{45.8, 50.9, 61}, {42.8, 39.2, 78.5}, 3.94}},
-                                                     {{{56, 56, 10}, {56, 56, 38.1}, 7.0},
-                                                      {{56, 56, 38.1}, {58.4, 46.4, 57.4}, 5.25},
-                                                      {{58.4, 46.4, 57.4}, {55.7, 46, 71.4}, 3.94},
-                                                      {{58.4, 46.4, 57.4}, {62.9, 44.4, 76.9}, 3.94},
-                                                      {{58.4, 46.4, 57.4}, {55, 46.1, 74.2}, 3.94},
-                                                      {{56, 56, 38.1}, {47.7, 53.3, 56.5}, 5.25},
-                                                      {{47.7, 53.3, 56.5}, {50.2, 36, 61.7}, 3.94},
-                                                      {{47.7, 53.3, 56.5}, {40.4, 53.4, 69.5}, 3.94},
-                                                      {{56, 56, 38.1}, {48.5, 53.5, 63.3}, 5.25},
-                                                      {{48.5, 53.5, 63.3}, {52.7, 43, 72.5}, 3.94},
-                                                      {{48.5, 53.5, 63.3}, {45.8, 40.5, 72.5}, 3.94}}};
+    const std::vector<std::vector<Capsule>>& trees = crossingTrees();
     for (std::size_t k = 0; k < trees.size(); ++k) {
         SCOPED_TRACE("tree " + std::to_string(k));
         const Volume volume = capsuleUnion(trees[k], "capsule tree");

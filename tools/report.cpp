@@ -2,6 +2,8 @@
 
 #include "report.h"
 
+#include <pipetile/validate.h>
+
 namespace pipetile::tools {
 
 using nlohmann::json;
@@ -106,7 +108,8 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},
           {"euler", stats.eventEuler},
-          {"built_euler", stats.caps - stats.saddles}}},
+          {"built_euler", stats.caps - stats.saddles},
+          {"isosurface_euler", isosurfaceEuler(volume)}}},
         {"graph", graphJson(reconstruction)},
         {"levels", json::array()},
     };
