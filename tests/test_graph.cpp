@@ -561,6 +561,33 @@ TEST(Graph, DISABLED_KnownGapRandomTreesWhoseBranchesCrossHaveTheIsosurfaceTopol
     }
 }
 
+TEST(Graph, ATreeWhoseBranchesFuseIntoOneBlobIsWithinAVoxelAtTheTopLevel)
+{
+    // Seed 3 of the crossing trees' generator (to a hundredth of a voxel), sliced along x: two of
+    // the second generation's branches fuse into a blob whose sections are 15 pixels in radius. A
+    // central point that came within a pixel of the blob's edge jumped to the section's centroid,
+    // 17 pixels away in another branch, and its band crossed the blob: 2.57 voxels off at the top
+    // level (0.88 now). It moves to the clear pixel nearest where it would have gone instead.
+    const std::vector<Capsule> tree = {{{56, 56, 10}, {56, 56, 33.03}, 7.0},
+                                       {{56, 56, 33.03}, {62.29, 47.45, 52.02}, 5.25},
+                                       {{62.29, 47.45, 52.02}, {49.73, 41.25, 57.24}, 3.9375},
+                                       {{62.29, 47.45, 52.02}, {69.38, 37.32, 65.9}, 3.9375},
+                                       {{56, 56, 33.03}, {45.81, 52.23, 54.23}, 5.25},
+                                       {{45.81, 52.23, 54.23}, {41.68, 51.2, 70.04}, 3.9375},
+                                       {{45.81, 52.23, 54.23}, {37.62, 49.22, 69.63}, 3.9375},
+                                       {{45.81, 52.23, 54.23}, {40.38, 49.33, 70.03}, 3.9375}};
+    const Volume volume = capsuleUnion(tree, "fused capsule tree");
+    MeshOptions options;
+    options.slicing.axis = Axis::X;
+    const Reconstruction reconstruction(volume, options);
+    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
+    const Validation v = Validator(volume).validate(top.mesh);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(v.topology.euler, reference.euler);
+    EXPECT_EQ(v.topology.components, reference.components);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+}
+
 TEST(Graph, BaselineTilersCloseEveryLevelToo)
 {
     // The baseline tilers on the same skeleton: a strip that fans one point over a whole contour
