@@ -124,8 +124,9 @@ public:
         ++mLine;
         return true;
     }
-    std::size_t line() const { return mLine; }  // of the line `next` returned last
-    std::size_t offset() const { return mPos; } // of the line after it
+    std::size_t line() const { return mLine; } // of the line `next` returned last
+    // Of the line after it: the end of the text after a last line with no newline.
+    std::size_t offset() const { return std::min(mPos, mText.size()); }
 
 private:
     std::string_view mText;

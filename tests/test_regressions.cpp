@@ -421,3 +421,14 @@ TEST(Regressions, TetrahedraSharingAVertexReadAsWritten)
     EXPECT_EQ(t.boundaryEdges + t.nonManifoldEdges, 0);
     EXPECT_EQ(t.euler, 3);
 }
+
+TEST(Regressions, APlyHeaderEndingTheFileWithoutANewlineReadsAsWritten)
+{
+    // fuzz/corpus_regressions/mesh/end_header_without_newline.ply: the file ends on its
+    // 'end_header' line, with no newline after it, and the body's offset lay one byte past the end
+    // (std::out_of_range, an abort in fuzz_mesh). As written: its header declares one element,
+    // 'edge', with no instances, and neither vertices nor faces.
+    const TriangleMesh mesh = readMesh(fuzzInput("mesh", "end_header_without_newline.ply"));
+    EXPECT_TRUE(mesh.vertices.empty());
+    EXPECT_TRUE(mesh.triangles.empty());
+}
