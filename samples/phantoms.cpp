@@ -43,13 +43,16 @@ constexpr double kBlockSafetyVoxels = 2.0;
 // ---------------------------------------------------------------------------------------------
 // Exact distance primitives
 
-/// Exact signed distance to the capsule of radius `radius` around the segment [a, b].
+} // namespace
+
 double capsuleDistance(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, double radius)
 {
     const glm::dvec3 ab = b - a;
     const double t = glm::clamp(glm::dot(p - a, ab) / glm::dot(ab, ab), 0.0, 1.0);
     return glm::length(p - (a + t * ab)) - radius;
 }
+
+namespace {
 
 /// Exact 2D signed distance to the points within `thickness` of a circular arc of radius
 /// `arcRadius` centred at the origin, symmetric about +y and spanning +-halfAngle from it

@@ -43,6 +43,9 @@ DistanceFunction sampleDistance(const std::string& name);
 /// @throw Error if there is no sample of that name.
 Volume makeSample(const std::string& name);
 
+/// Exact signed distance to the capsule of radius `radius` around the segment [a, b].
+double capsuleDistance(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, double radius);
+
 /// Generates a narrow-band level set of any signed distance function on [0, dims) voxels.
 /// Only the 8^3 blocks whose centre lies within reach of the band are evaluated.
 Volume levelSetFromDistance(const DistanceFunction& distance, const glm::ivec3& dims, double voxelSize,

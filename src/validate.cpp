@@ -13,6 +13,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <cmath>
@@ -233,6 +234,12 @@ constexpr int kCornerEdges[3] = {1, 9, 4};
 // VolumeToMesh.h's corner order: corner n lies at the cell's origin plus this.
 constexpr int kCorners[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}, {0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1}};
 
+// The origin of neighbour b (0..26: -1..1 blocks along x, y, z) of the 8^3 block at `origin`.
+openvdb::Coord neighbourBlock(const openvdb::Coord& origin, int b)
+{
+    return origin + openvdb::Coord(8 * (b / 9 - 1), 8 * (b / 3 % 3 - 1), 8 * (b % 3 - 1));
+}
+
 // Whether every voxel of a block of 8^3 lies below the iso value (1), none does (0), or some (2).
 using BlockSign = std::uint8_t;
 constexpr BlockSign kMixed = 2;
@@ -255,8 +262,7 @@ struct CellBlock {
     {
         float constant[27];
         for (int b = 0; b < 27; ++b) {
-            const openvdb::Coord corner =
-                origin + openvdb::Coord(8 * (b / 9 - 1), 8 * (b / 3 % 3 - 1), 8 * (b % 3 - 1));
+            const openvdb::Coord corner = neighbourBlock(origin, b);
             leaves[b] = accessor.probeConstLeaf(corner);
             constant[b] = accessor.getValue(corner);
         }
@@ -298,6 +304,54 @@ BlockSign blockSign(const openvdb::FloatTree::LeafNodeType& leaf, float iso)
     return all ? 1 : some ? kMixed : 0;
 }
 
+// V, E and F of the isosurface as volumeToMesh meshes it (vertices, edges, faces).
+using CellCounts = std::array<long long, 3>;
+
+// Adds the counts of the crossing cells that belong to `leaf`: one vertex per edge group, one
+// edge per distinct pair of groups joined across a face, one face per crossing grid edge.
+void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb::FloatGrid::ConstAccessor& accessor,
+                    float iso, CellCounts& counts)
+{
+    auto& [vertices, edges, faces] = counts;
+    const CellBlock cells(accessor, leaf.origin(), iso);
+    for (int x = -1; x < 8; ++x)
+        for (int y = -1; y < 8; ++y) {
+            // The cells of this row along z whose corners are not all on one side.
+            const std::uint32_t r0 = cells.row(x, y), r1 = cells.row(x + 1, y), r2 = cells.row(x, y + 1),
+                                r3 = cells.row(x + 1, y + 1);
+            const std::uint32_t any = r0 | r1 | r2 | r3, all = r0 & r1 & r2 & r3;
+            std::uint32_t crossing = ((any | any >> 1) & ~(all & all >> 1)) & 0x1FF; // z = -1..7
+            for (; crossing != 0; crossing &= crossing - 1) {
+                const int z = __builtin_ctz(crossing) - 1;
+                // A cell belongs to the leaf of its first corner that lies in one (every crossing
+                // lies in a leaf: the volume's active tiles are voxelized).
+                if (x < 0 || y < 0 || z < 0) {
+                    int n = 0;
+                    while (n < 8 && !cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2])) ++n;
+                    if (n == 8 || cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2]) != &leaf)
+                        continue;
+                }
+                const std::uint8_t signs = cells.signs(x, y, z, accessor, iso);
+                vertices += vtm::sEdgeGroupTable[signs][0];
+                for (int axis = 0; axis < 3; ++axis) {
+                    if (vtm::sEdgeGroupTable[signs][kCornerEdges[axis]] != 0) ++faces;
+                    // Groups of this cell and the next joined across their face, each pair once.
+                    int pairs[4], count = 0;
+                    std::uint8_t next = 0;
+                    for (const auto& edge : kFaceEdges[axis]) {
+                        const int mine = vtm::sEdgeGroupTable[signs][edge[0]];
+                        if (mine == 0) continue;
+                        if (count == 0)
+                            next = cells.signs(x + (axis == 0), y + (axis == 1), z + (axis == 2), accessor, iso);
+                        const int pair = mine * 16 + vtm::sEdgeGroupTable[next][edge[1]];
+                        if (std::find(pairs, pairs + count, pair) == pairs + count) pairs[count++] = pair;
+                    }
+                    edges += count;
+                }
+            }
+        }
+}
+
 } // namespace
 
 long long isosurfaceEuler(const Volume& volume)
@@ -319,66 +373,18 @@ long long isosurfaceEuler(const Volume& volume)
         const openvdb::Coord origin = leaf->origin();
         const BlockSign own = signOf[origin];
         bool uniform = own != kMixed;
-        for (int b = 0; b < 27 && uniform; ++b)
-            uniform =
-                neighbourSign(origin + openvdb::Coord(8 * (b / 9 - 1), 8 * (b / 3 % 3 - 1), 8 * (b % 3 - 1))) == own;
+        for (int b = 0; b < 27 && uniform; ++b) uniform = neighbourSign(neighbourBlock(origin, b)) == own;
         if (!uniform) crossed.push_back(&*leaf);
     }
     // V, E and F, summed over the leaves in parallel (an accessor per task: they are not shared).
-    using Counts = std::array<long long, 3>;
-    const Counts counts = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, crossed.size()), Counts{0, 0, 0},
-        [&](const tbb::blocked_range<std::size_t>& range, Counts sum) {
+    const CellCounts counts = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, crossed.size()), CellCounts{0, 0, 0},
+        [&](const tbb::blocked_range<std::size_t>& range, CellCounts sum) {
             const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
-            auto& [vertices, edges, faces] = sum;
-            for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                const openvdb::FloatTree::LeafNodeType* leaf = crossed[i];
-                const openvdb::Coord origin = leaf->origin();
-                const CellBlock cells(accessor, origin, iso);
-                for (int x = -1; x < 8; ++x)
-                    for (int y = -1; y < 8; ++y) {
-                        // The cells of this row along z whose corners are not all on one side.
-                        const std::uint32_t r0 = cells.row(x, y), r1 = cells.row(x + 1, y), r2 = cells.row(x, y + 1),
-                                            r3 = cells.row(x + 1, y + 1);
-                        const std::uint32_t any = r0 | r1 | r2 | r3, all = r0 & r1 & r2 & r3;
-                        std::uint32_t crossing = ((any | any >> 1) & ~(all & all >> 1)) & 0x1FF; // z = -1..7
-                        for (; crossing != 0; crossing &= crossing - 1) {
-                            const int z = __builtin_ctz(crossing) - 1;
-                            // A cell belongs to the leaf of its first corner that lies in one (every
-                            // crossing lies in a leaf: the volume's active tiles are voxelized).
-                            if (x < 0 || y < 0 || z < 0) {
-                                int n = 0;
-                                while (n < 8 &&
-                                       !cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2]))
-                                    ++n;
-                                if (n == 8 ||
-                                    cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2]) != leaf)
-                                    continue;
-                            }
-                            const std::uint8_t signs = cells.signs(x, y, z, accessor, iso);
-                            vertices += vtm::sEdgeGroupTable[signs][0];
-                            for (int axis = 0; axis < 3; ++axis) {
-                                if (vtm::sEdgeGroupTable[signs][kCornerEdges[axis]] != 0) ++faces;
-                                // Groups of this cell and the next joined across their face, each pair once.
-                                int pairs[4], count = 0;
-                                std::uint8_t next = 0;
-                                for (const auto& edge : kFaceEdges[axis]) {
-                                    const int mine = vtm::sEdgeGroupTable[signs][edge[0]];
-                                    if (mine == 0) continue;
-                                    if (count == 0)
-                                        next = cells.signs(x + (axis == 0), y + (axis == 1), z + (axis == 2), accessor,
-                                                           iso);
-                                    const int pair = mine * 16 + vtm::sEdgeGroupTable[next][edge[1]];
-                                    if (std::find(pairs, pairs + count, pair) == pairs + count) pairs[count++] = pair;
-                                }
-                                edges += count;
-                            }
-                        }
-                    }
-            }
+            for (std::size_t i = range.begin(); i != range.end(); ++i) countLeafCells(*crossed[i], accessor, iso, sum);
             return sum;
         },
-        [](Counts a, const Counts& b) {
+        [](CellCounts a, const CellCounts& b) {
             for (int k = 0; k < 3; ++k) a[k] += b[k];
             return a;
         });

@@ -482,11 +482,7 @@ Volume capsuleUnion(const std::vector<Capsule>& capsules, const std::string& sou
     return samples::levelSetFromDistance(
         [&](const glm::dvec3& p) {
             double d = std::numeric_limits<double>::infinity();
-            for (const Capsule& c : capsules) {
-                const glm::dvec3 ab = c.b - c.a;
-                const double t = std::clamp(glm::dot(p - c.a, ab) / glm::dot(ab, ab), 0.0, 1.0);
-                d = std::min(d, glm::length(p - (c.a + t * ab)) - c.radius);
-            }
+            for (const Capsule& c : capsules) d = std::min(d, samples::capsuleDistance(p, c.a, c.b, c.radius));
             return d;
         },
         {112, 112, 112}, 1.0, source);
