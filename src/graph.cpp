@@ -636,4 +636,91 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
     return true;
 }
 
+std::pair<int, int> Keyhole::at(int q) const
+{
+    if (q < wallSize) return {0, (wall + q) % wallSize};
+    return {1, ((hole - (q - wallSize)) % holeSize + holeSize) % holeSize};
+}
+
+std::vector<glm::dvec2> keyholePolygon(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
+                                       const Keyhole& keyhole)
+{
+    std::vector<glm::dvec2> polygon;
+    polygon.reserve(static_cast<std::size_t>(keyhole.size()));
+    for (int q = 0; q < keyhole.size(); ++q) {
+        const auto [member, point] = keyhole.at(q);
+        polygon.push_back((member == 0 ? wall : hole)[static_cast<std::size_t>(point)]);
+    }
+    return polygon;
+}
+
+namespace {
+
+double cross(const glm::dvec2& a, const glm::dvec2& b)
+{
+    return a.x * b.y - a.y * b.x;
+}
+
+// Whether segments ab and cd cross at a point inside both (touching at an end is no crossing).
+bool segmentsCross(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, const glm::dvec2& d)
+{
+    const double abc = cross(b - a, c - a), abd = cross(b - a, d - a);
+    const double cda = cross(d - c, a - c), cdb = cross(d - c, b - c);
+    return ((abc > 0.0 && abd < 0.0) || (abc < 0.0 && abd > 0.0)) &&
+           ((cda > 0.0 && cdb < 0.0) || (cda < 0.0 && cdb > 0.0));
+}
+
+bool crossesPolygon(const glm::dvec2& a, const glm::dvec2& b, const std::vector<glm::dvec2>& polygon)
+{
+    for (std::size_t i = 0; i < polygon.size(); ++i)
+        if (segmentsCross(a, b, polygon[i], polygon[(i + 1) % polygon.size()])) return true;
+    return false;
+}
+
+} // namespace
+
+bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
+                   const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole)
+{
+    constexpr double kStep = 0.25; // pixels between the samples of `blocked` along the slit
+    const int walls = static_cast<int>(wall.size()), holes = static_cast<int>(hole.size());
+    if (walls < 3 || holes < 3) return false;
+    // Slits by the length of their middle line, from the wall segment's middle to the hole's.
+    struct Slit {
+        double length;
+        int wall, hole;
+    };
+    std::vector<Slit> slits;
+    slits.reserve(static_cast<std::size_t>(walls) * static_cast<std::size_t>(holes));
+    for (int p = 0; p < walls; ++p)
+        for (int h = 0; h < holes; ++h) {
+            const glm::dvec2 w = 0.5 * (wall[(p + walls - 1) % walls] + wall[p]),
+                             o = 0.5 * (hole[h] + hole[(h + 1) % holes]);
+            slits.push_back({glm::distance(w, o), p, h});
+        }
+    std::sort(slits.begin(), slits.end(), [](const Slit& a, const Slit& b) {
+        return std::tie(a.length, a.wall, a.hole) < std::tie(b.length, b.wall, b.hole);
+    });
+    double bestBlocked = std::numeric_limits<double>::infinity();
+    for (const Slit& slit : slits) {
+        if (bestBlocked == 0.0) break; // the shortest unblocked slit is found
+        const glm::dvec2 &w0 = wall[(slit.wall + walls - 1) % walls], &w1 = wall[slit.wall];
+        const glm::dvec2 &h0 = hole[slit.hole], &h1 = hole[(slit.hole + 1) % holes];
+        // The slit's quadrilateral, counterclockwise, with crossings w0-h0 and w1-h1.
+        if (cross(w1 - w0, h1 - w0) + cross(h1 - w0, h0 - w0) <= 0.0 || segmentsCross(w0, h0, w1, h1)) continue;
+        double stretch = 0.0;
+        const int samples = static_cast<int>(std::ceil(slit.length / kStep));
+        const glm::dvec2 from = 0.5 * (w0 + w1), to = 0.5 * (h0 + h1);
+        for (int s = 0; s <= samples; ++s)
+            if (blocked(glm::mix(from, to, samples > 0 ? static_cast<double>(s) / samples : 0.0))) stretch += kStep;
+        if (stretch >= bestBlocked) continue;
+        if (crossesPolygon(w0, h0, wall) || crossesPolygon(w0, h0, hole) || crossesPolygon(w1, h1, wall) ||
+            crossesPolygon(w1, h1, hole))
+            continue;
+        bestBlocked = stretch;
+        keyhole = {slit.wall, slit.hole, walls, holes};
+    }
+    return keyhole.open();
+}
+
 } // namespace pipetile

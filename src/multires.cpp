@@ -561,19 +561,42 @@ bool Reconstruction::splitJunction(Junction& junction) const
     const std::vector<glm::dvec2>& polygon = mLoops[junction.single.first][junction.single.second].view.polygon;
     const std::vector<glm::dvec2>* inner =
         junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second].view.polygon : nullptr;
-    if (!splitIntoArcs(polygon, inner, partners, junction)) return false;
     const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
+    const SlicePlane plane(mVolume, mPlan, w);
+    // A ring whose hole the partners do not share out (splitIntoArcs) is cut open where the
+    // partners' plane is outside, the gap its material closes, and split as one contour.
+    std::vector<glm::dvec2> keyholed;
+    if (!splitIntoArcs(polygon, inner, partners, junction)) {
+        const auto blocked = [&](const glm::dvec2& point) { return plane.sampleAt(point, wPartners) < 0.0; };
+        if (!inner || !chooseKeyhole(polygon, *inner, blocked, junction.keyhole)) return false;
+        keyholed = keyholePolygon(polygon, *inner, junction.keyhole);
+        if (!splitIntoArcs(keyholed, nullptr, partners, junction)) return false;
+    }
+    const Keyhole& keyhole = junction.keyhole;
+    const std::vector<glm::dvec2>& single = keyhole.open() ? keyholed : polygon;
+    const bool ring = inner && !keyhole.open(); // split into sectors
     auto addNode = [&](const glm::dvec2& point, double wNode) {
         junction.nodePoints.push_back(point);
         junction.nodeIndex.push_back(planeToIndex(mPlan.axis, point, wNode));
     };
-    for (int cut : junction.cuts) addNode(polygon[cut], w);
-    if (inner)
-        for (int cut : junction.innerCuts) addNode((*inner)[cut], w);
+    auto addContourNode = [&](int member, int point) {
+        addNode((member == 0 ? polygon : *inner)[static_cast<std::size_t>(point)], w);
+        junction.nodeOn.emplace_back(member, point);
+    };
+    for (int cut : junction.cuts) {
+        const auto [member, point] = keyhole.open() ? keyhole.at(cut) : std::pair{0, cut};
+        addContourNode(member, point);
+    }
+    for (int cut : junction.innerCuts) addContourNode(1, cut);
+    // The slit's four ends: its crossings join them.
+    for (int q : {keyhole.wallSize - 1, keyhole.wallSize, keyhole.size() - 1, 0}) {
+        if (!keyhole.open()) break;
+        const auto [member, point] = keyhole.at(q);
+        if (junction.nodeAt(member, point) < 0) addContourNode(member, point);
+    }
     // Hub and chord middles lie just short of the saddle: inside across a neck or a ring's wall,
     // outside across a gap that closes. Toward the partners' plane the field changes sides at
     // the saddle itself, so they move there (and stay put if they do not get there).
-    const SlicePlane plane(mVolume, mPlan, w);
     auto addSaddleNode = [&](const glm::dvec2& point) {
         double wSaddle = w;
         const double side = plane.sampleAt(point, w) < 0.0 ? 1.0 : -1.0;
@@ -581,9 +604,9 @@ bool Reconstruction::splitJunction(Junction& junction) const
         addNode(point, wSaddle);
     };
     const std::size_t n = junction.cuts.size();
-    if (junction.hubbed && !inner) {
+    if (junction.hubbed && !ring) {
         glm::dvec2 hub(0.0);
-        for (int cut : junction.cuts) hub += polygon[cut] / static_cast<double>(n);
+        for (int cut : junction.cuts) hub += single[cut] / static_cast<double>(n);
         addSaddleNode(hub);
         composeParts(junction);
         return true;
@@ -594,21 +617,27 @@ bool Reconstruction::splitJunction(Junction& junction) const
     for (std::size_t a = 0; a < n; ++a) {
         // A ring's chord k + 1 runs from the wall's cut k + 1 to the hole's; a gap's from cut a + 1
         // back to cut a.
-        if (!inner && arcs[junction.owner[a]] != 1) continue;
+        if (!ring && arcs[junction.owner[a]] != 1) continue;
         const std::size_t b = (a + 1) % n;
         junction.chordArcs.push_back(static_cast<int>(a));
-        if (inner) {
-            addSaddleNode(0.5 * (polygon[junction.cuts[b]] + (*inner)[junction.innerCuts[b]]));
+        if (ring) {
+            addSaddleNode(0.5 * (single[junction.cuts[b]] + (*inner)[junction.innerCuts[b]]));
             continue;
         }
         const bool reversed =
             mLoops[junction.many[junction.owner[a]].first][junction.many[junction.owner[a]].second].loop.hole() !=
                 mLoops[junction.single.first][junction.single.second].loop.hole() &&
             junction.kind != EventKind::Rim;
-        addSaddleNode(gapMiddle(polygon, junction.cuts[a], junction.cuts[b], reversed ? -1.0 : 1.0));
+        addSaddleNode(gapMiddle(single, junction.cuts[a], junction.cuts[b], reversed ? -1.0 : 1.0));
     }
     composeParts(junction);
     return true;
+}
+
+int Reconstruction::Junction::nodeAt(int member, int point) const
+{
+    const auto at = std::find(nodeOn.begin(), nodeOn.end(), std::pair{member, point});
+    return at == nodeOn.end() ? -1 : static_cast<int>(at - nodeOn.begin());
 }
 
 void Reconstruction::composeParts(Junction& junction) const
@@ -616,18 +645,24 @@ void Reconstruction::composeParts(Junction& junction) const
     using Part = Junction::Part;
     const SliceLoop& single = mLoops[junction.single.first][junction.single.second];
     const SliceLoop* inner = junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second] : nullptr;
+    const Keyhole& keyhole = junction.keyhole;
+    const bool ring = inner && !keyhole.open();
     const std::size_t n = junction.cuts.size();
-    const int firstMiddle = static_cast<int>(n + junction.innerCuts.size());
+    const int firstMiddle = static_cast<int>(junction.nodeOn.size());
     auto middleOf = [&](std::size_t a) { // the node of the chord closing arc a, or -1
         const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
         return at == junction.chordArcs.end() ? -1 : firstMiddle + static_cast<int>(at - junction.chordArcs.begin());
     };
-    // Arc a of a polygon: from cut `from` to cut `to`, stepping `step` through its points.
-    auto appendArc = [](Part& part, int member, std::size_t size, int from, int to, int step, int fromNode,
-                        int toNode) {
-        for (int p = from;; p = static_cast<int>((p + step + size) % size)) {
-            part.corners.push_back({member, p, p == from ? fromNode : p == to ? toNode : -1});
-            if (p == to) break;
+    // The corners from point `from` to point `to` of the single contour (member 0: the
+    // keyhole's composite where it is cut open) or its hole (1), stepping `step`.
+    auto appendArc = [&](Part& part, int member, int from, int to, int step) {
+        const int size = static_cast<int>(member == 1      ? inner->view.polygon.size()
+                                          : keyhole.open() ? static_cast<std::size_t>(keyhole.size())
+                                                           : single.view.polygon.size());
+        for (int q = from;; q = (q + step + size) % size) {
+            const auto [m, p] = member == 0 && keyhole.open() ? keyhole.at(q) : std::pair{member, q};
+            part.corners.push_back({m, p, junction.nodeAt(m, p)});
+            if (q == to) break;
         }
     };
     auto appendNode = [](Part& part, int node) {
@@ -642,12 +677,10 @@ void Reconstruction::composeParts(Junction& junction) const
         for (std::size_t a = 0; a < n; ++a) {
             if (junction.owner[a] != static_cast<int>(k)) continue;
             const std::size_t b = (a + 1) % n;
-            appendArc(part, 0, single.view.polygon.size(), junction.cuts[a], junction.cuts[b], 1, static_cast<int>(a),
-                      static_cast<int>(b));
-            if (inner) {
+            appendArc(part, 0, junction.cuts[a], junction.cuts[b], 1);
+            if (ring) {
                 appendNode(part, middleOf(a));
-                appendArc(part, 1, inner->view.polygon.size(), junction.innerCuts[b], junction.innerCuts[a], -1,
-                          static_cast<int>(n + b), static_cast<int>(n + a));
+                appendArc(part, 1, junction.innerCuts[b], junction.innerCuts[a], -1);
                 appendNode(part, middleOf((a + n - 1) % n));
             } else if (!junction.hubbed) {
                 const int own = middleOf(a);
@@ -1254,7 +1287,7 @@ Skeleton Reconstruction::skeleton() const
         j.kind = junction.kind;
         j.w = mPositions[junction.single.first];
         // The hub's plane, or the chords' middles' mean: where the saddle nodes got to.
-        const std::size_t firstMiddle = junction.cuts.size() + junction.innerCuts.size();
+        const std::size_t firstMiddle = junction.nodeOn.size();
         for (std::size_t node = firstMiddle; node < junction.nodeIndex.size(); ++node)
             j.crotchW +=
                 junction.nodeIndex[node][mPlan.axis] / static_cast<double>(junction.nodeIndex.size() - firstMiddle);
@@ -1466,6 +1499,7 @@ private:
     std::vector<std::uint32_t> partBoundary(std::size_t j, std::size_t k, const Ring& ring, const Ring& innerRing,
                                             const ChordVertices& chords) const;
     void tilePart(std::size_t j, std::size_t k, const std::vector<std::uint32_t>& boundary);
+    void tileSlit(std::size_t j, const Ring& ring, const Ring& innerRing, const ChordVertices& chords);
 
     // The reconstruction's state, under its own names.
     const Volume& mVolume;
@@ -1581,15 +1615,12 @@ void Reconstruction::Assembly::numberJunctionVertices()
     extras.resize(members.size());
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const Junction& junction = mJunctions[j];
-        const std::size_t n = junction.cuts.size();
         firstNodeOf[j] = vertexCount;
-        for (std::size_t k = 0; k < n; ++k)
-            extras[memberAt(junction.single)].push_back(
-                {junction.cuts[k], 0.0, vertexCount + static_cast<std::uint32_t>(k), junction.nodePoints[k]});
-        for (std::size_t k = 0; k < junction.innerCuts.size(); ++k)
-            extras[memberAt(junction.inner)].push_back({junction.innerCuts[k], 0.0,
-                                                        vertexCount + static_cast<std::uint32_t>(n + k),
-                                                        junction.nodePoints[n + k]});
+        for (std::size_t node = 0; node < junction.nodeOn.size(); ++node) {
+            const auto [member, point] = junction.nodeOn[node];
+            extras[memberAt(member == 0 ? junction.single : junction.inner)].push_back(
+                {point, 0.0, vertexCount + static_cast<std::uint32_t>(node), junction.nodePoints[node]});
+        }
         vertexCount += static_cast<std::uint32_t>(junction.nodePoints.size());
         for (const Contour& part : parts[j]) {
             partFirst[j].push_back(vertexCount);
@@ -1885,6 +1916,60 @@ void Reconstruction::Assembly::tileJunction(std::size_t j)
     ChordVertices chords = onChord[j];
     for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
     for (std::size_t k = 0; k < junction.many.size(); ++k) tilePart(j, k, partBoundary(j, k, ring, innerRing, chords));
+    if (junction.keyhole.open()) tileSlit(j, ring, innerRing, chords);
+}
+
+// A keyhole's slit: the quadrilateral of the ring's material between its two crossings, flat in
+// the single contour's plane, where the gap its material closes ends (graph.h, Keyhole). Its
+// boundary runs counterclockwise: along the wall's segment, back across the crossing to the
+// hole, along the hole's segment backward, across the other crossing; it faces the partners.
+void Reconstruction::Assembly::tileSlit(std::size_t j, const Ring& ring, const Ring& innerRing,
+                                        const ChordVertices& chords)
+{
+    const Junction& junction = mJunctions[j];
+    const Keyhole& keyhole = junction.keyhole;
+    auto nodeOf = [&](int q) {
+        const auto [member, point] = keyhole.at(q);
+        return junction.nodeAt(member, point);
+    };
+    const int corners[4] = {nodeOf(keyhole.wallSize - 1), nodeOf(0), nodeOf(keyhole.size() - 1),
+                            nodeOf(keyhole.wallSize)};
+    std::vector<std::uint32_t> boundary;
+    std::vector<glm::dvec2> points;
+    // From node `from` up to node `to` (not included): along a ring, or across a crossing.
+    auto walkRing = [&](const Ring& r, int from, int to, bool forward) {
+        const std::size_t size = r.ids.size();
+        const auto id = [&](int node) { return firstNodeOf[j] + static_cast<std::uint32_t>(node); };
+        std::size_t p = static_cast<std::size_t>(std::find(r.ids.begin(), r.ids.end(), id(from)) - r.ids.begin());
+        for (; r.ids[p] != id(to); p = (p + (forward ? 1 : size - 1)) % size) {
+            boundary.push_back(r.ids[p]);
+            points.push_back(r.points[p]);
+        }
+    };
+    auto walkChord = [&](int from, int to) {
+        boundary.push_back(firstNodeOf[j] + static_cast<std::uint32_t>(from));
+        points.push_back(junction.nodePoints[from]);
+        const Chord chord{std::min(from, to), std::max(from, to)};
+        const auto along = chords.find(chord);
+        if (along == chords.end()) return;
+        std::vector<std::pair<double, std::uint32_t>> crossings = along->second;
+        if (from > to) std::reverse(crossings.begin(), crossings.end());
+        for (const auto& [t, id] : crossings) {
+            boundary.push_back(id);
+            points.push_back(glm::mix(junction.nodePoints[chord.first], junction.nodePoints[chord.second], t));
+        }
+    };
+    walkRing(ring, corners[0], corners[1], true);
+    walkChord(corners[1], corners[2]);
+    walkRing(innerRing, corners[2], corners[3], false);
+    walkChord(corners[3], corners[0]);
+    // Counterclockwise in the plane faces +w: up at a fork, where the partners lie above.
+    const bool flip = (junction.kind == EventKind::Fork) == mirrored;
+    for (Triangle t : earClip(points)) {
+        for (std::uint32_t& v : t) v = boundary[v];
+        if (flip) std::swap(t[1], t[2]);
+        mesh.triangles.push_back(t);
+    }
 }
 
 // Part k's boundary: every vertex on it, in its order. Along an arc, the ring's entries from one

@@ -56,14 +56,21 @@ struct Reconstruction::Junction : JunctionArcs {
     std::vector<int> chordArcs;            // no hub: the arcs a chord closes (a gap's
                                            // arc; for a ring every arc, closed from cut
                                            // k + 1 of the wall to the hole's, and back)
-    // Nodes: the junction's own vertices, the same at every level: the cuts (node k), the
-    // hole's cuts (node n + k), then the hub (where the chords from the cuts meet: their
-    // mean) or the chords' middles, in chordArcs' order. Hub and middles start in the single
-    // contour's plane and move along the axis toward the partners onto the surface (the
-    // crotch), if they get there; a chord never joins two cuts directly, so no cap of the
-    // same contour can share its edge.
-    std::vector<glm::dvec2> nodePoints; // in-plane
-    std::vector<glm::dvec3> nodeIndex;  // index space
+    Keyhole keyhole;                       // a ring cut open: `cuts` index its composite
+                                           // contour, which stands for `single` (graph.h)
+    // Nodes: the junction's own vertices, the same at every level: first those on the single
+    // contour or its hole (nodeOn), the cuts (node k), the hole's cuts (node n + k) or a
+    // keyhole's slit ends not already cuts; then the hub (where the chords from the cuts meet:
+    // their mean) or the chords' middles, in chordArcs' order. Hub and middles start in the
+    // single contour's plane and move along the axis toward the partners onto the surface (the
+    // crotch), if they get there; a chord never joins two cuts directly, so no cap of the same
+    // contour can share its edge (a slit's crossings join a wall and its hole, which no cap
+    // does).
+    std::vector<glm::dvec2> nodePoints;      // in-plane
+    std::vector<glm::dvec3> nodeIndex;       // index space
+    std::vector<std::pair<int, int>> nodeOn; // per node on a contour: (0, point of `single`)
+                                             // or (1, point of `inner`)
+    int nodeAt(int member, int point) const; // the node there, or -1
     /// Partner k's side of the junction as one polygon, a composite contour (TOPOLOGY.md):
     /// its arcs of `single` (and of `inner`) closed through the hub or the chords' middles,
     /// counterclockwise. Cast with the partner's rays at every level, it is tiled to the

@@ -120,4 +120,33 @@ struct JunctionArcs {
 bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm::dvec2>* inner,
                    const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs);
 
+/// A ring (a wall and its hole, both counterclockwise) cut open into one composite contour
+/// (TOPOLOGY.md's bridge, for a lumen that opens or closes): a slit from the wall's segment
+/// (wall - 1, wall) to the hole's segment (hole, hole + 1). The composite runs along the wall
+/// from point `wall` to point wall - 1, crosses to point `hole`, runs back along the hole to
+/// point hole + 1 and crosses back: counterclockwise, the ring's material on its left. The slit
+/// between the two crossings, a flat quadrilateral of that material, is left out of it (the
+/// reconstruction tiles it flat, facing the partners).
+struct Keyhole {
+    int wall = -1, hole = -1;
+    int wallSize = 0, holeSize = 0;
+    bool open() const { return wall >= 0; }
+    /// Point q of the composite as (0, wall point) or (1, hole point).
+    std::pair<int, int> at(int q) const;
+    int size() const { return wallSize + holeSize; }
+};
+
+/// Where to cut a ring open when its hole is too small for every partner to own a part of it (a
+/// C closing around a new lumen while another branch joins it; a ring breaking where a thin hole
+/// meets its wall): the slit, inside the ring's material (its two crossings cross neither
+/// polygon), along which `blocked` (the partners' plane is inside there) holds over the least
+/// length, then the shortest: the partners' gap that the ring's material closes. False if no
+/// slit crosses neither polygon.
+bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
+                   const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole);
+
+/// The keyhole's composite contour, point q being keyhole.at(q)'s.
+std::vector<glm::dvec2> keyholePolygon(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
+                                       const Keyhole& keyhole);
+
 } // namespace pipetile
