@@ -474,6 +474,7 @@ void Reconstruction::resolveEvents()
                 mStats.forks += piece.kind == EventKind::Fork ? 1 : 0;
                 mStats.merges += piece.kind == EventKind::Merge ? 1 : 0;
                 mStats.rims += piece.kind == EventKind::Rim ? 1 : 0;
+                mStats.keyholes += junction.keyhole.open() ? 1 : 0;
                 // A junction of c contours is a sphere with c holes less one disc (Euler 2 - c):
                 // c - 2 saddles, so that caps - saddles stays the mesh's Euler characteristic.
                 mStats.saddles += static_cast<int>(piece.below.size() + piece.above.size()) - 2;

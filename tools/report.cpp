@@ -104,6 +104,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"saddles", stats.saddles},
           {"rims", stats.rims},
           {"waists", stats.waists},
+          {"keyholes", stats.keyholes},
           {"unresolved", stats.unresolvedEvents},
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},

@@ -94,6 +94,8 @@ struct ReconstructionStats {
     int rims = 0;                  // pieces where a wall and its hole end together
     int waists = 0;                // n:m pieces of walls (n, m >= 2) that bisection could not part:
                                    // a merge into a contour in the slab's middle, then a fork
+    int keyholes = 0;              // forks and merges of a ring (a wall and its hole) cut open into
+                                   // one contour, its hole being too small to share out (graph.h)
     int unresolvedEvents = 0;      // pieces of any other pattern: their contours are capped one by
                                    // one, so the mesh's topology differs from the isosurface there
     int unresolvedJunctions = 0;   // forks and merges whose contours could not be split into one
