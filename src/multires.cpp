@@ -590,11 +590,11 @@ bool Reconstruction::splitJunction(Junction& junction) const
     }
     for (int cut : junction.innerCuts) addContourNode(1, cut);
     // The slit's four ends: its crossings join them.
-    for (int q : {keyhole.wallSize - 1, keyhole.wallSize, keyhole.size() - 1, 0}) {
-        if (!keyhole.open()) break;
-        const auto [member, point] = keyhole.at(q);
-        if (junction.nodeAt(member, point) < 0) addContourNode(member, point);
-    }
+    if (keyhole.open())
+        for (int q : {keyhole.wallSize - 1, keyhole.wallSize, keyhole.size() - 1, 0}) {
+            const auto [member, point] = keyhole.at(q);
+            if (junction.nodeAt(member, point) < 0) addContourNode(member, point);
+        }
     // Hub and chord middles lie just short of the saddle: inside across a neck or a ring's wall,
     // outside across a gap that closes. Toward the partners' plane the field changes sides at
     // the saddle itself, so they move there (and stay put if they do not get there).
