@@ -47,7 +47,9 @@ long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 /// point, a triangle of no area), or two rays meet a contour thinner than a voxel. Every triangle
 /// on such an edge is a needle whatever the diagonals (its aspect ratio is about the distance to
 /// its third corner over the edge's length), so no flip removes it.
-/// Only the edges of triangles whose aspect ratio exceeds `needleAspect` are looked at; with
+/// Only the edges of triangles whose aspect ratio exceeds `needleAspect` are looked at, and
+/// without `measureMove` those of specks (triangles whose three edges lie within `tolerance`,
+/// whatever their shape: a speck's needles around it often cannot go, its own edges can); with
 /// `lowerWorst`, a collapse is made only where it lowers the largest aspect ratio of the
 /// triangles around the vertex that goes. Between two new ends, where the end that goes first
 /// cannot (a triangle would turn over, or the worst would not fall), the other goes instead.
@@ -62,9 +64,9 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of
-/// a few voxels far above. Every such edge of a triangle over kShortEdgeAspect goes where no
-/// triangle turns over; twice this, the collapses folded the surface (aspect 1e9 on the aorta's
-/// top level). The bands of smooth tubes lie under kShortEdgeAspect (the phantom's worst is 9)
+/// a few voxels far above. Every such edge of a triangle over kShortEdgeAspect, or of a speck
+/// (all three edges that short), goes where no triangle turns over; twice this, the collapses
+/// folded the surface (aspect 1e9 on the aorta's top level). The bands of smooth tubes lie under kShortEdgeAspect (the phantom's worst is 9)
 /// and stay as tiled: collapsing their short edges near a cap's apex left 44 angles under 5
 /// degrees on the phantom's top level where there were none.
 constexpr double kNeedleEdgeVoxels = 0.1;
