@@ -371,20 +371,19 @@ TEST(Quality, NoNeedlesOnTheRealData)
 
 TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
 {
-    // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy
-    // fog, keeps largest aspect ratios 945, 1008, 320 and 320 at levels 0 to 3 (444 at level 3
-    // before specks collapsed; 154 and 177 at levels 0 and 1 before its keyholes: the worst now
-    // lie at a keyhole's fork, where a speck of a branch owns a sliver of the contour that the minimum-area tiler closes; 282, 756 and 1498
-    // at levels 1 to 3, and 9, 8 and 8 triangles of no area, before its waists; the counts below
-    // are from then). At level 0, four needles over 100 have a
-    // short edge whose ends share a neighbour besides the edge's two third corners (the link
-    // condition refuses: the collapse would pinch the surface); one lies on a blob under a voxel
-    // across, a contour of 5 vertices banded to one of 3 a quarter voxel away, where each vertex
-    // of the one neighbours most of the other's. At levels 1 to 3, 41 of 43, 52 of
-    // 60 and 71 of 83 needles over 100 have a short edge (down to 0.004 voxel, or none: the
-    // triangles of no area join two copies of one point) whose two ends are both vertices of the
-    // level below, mostly not joined there: the refined tiling joins them, and neither may go, or
-    // levels would no longer nest.
+    // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy fog,
+    // keeps largest aspect ratios 945, 1008, 320 and 320 at levels 0 to 3 (444 at level 3 before
+    // specks collapsed; 154 and 177 at levels 0 and 1 before its keyholes: the worst now lie at a
+    // keyhole's fork, where a speck of a branch owns a sliver of the contour that the minimum-area
+    // tiler closes; 282, 756 and 1498 at levels 1 to 3, and 9, 8 and 8 triangles of no area, before
+    // its waists; the counts below are from then). At level 0, four needles over 100 have a short
+    // edge whose ends share a neighbour besides the edge's two third corners (the link condition
+    // refuses: the collapse would pinch the surface); one lies on a blob under a voxel across, a
+    // contour of 5 vertices banded to one of 3 a quarter voxel away, where each vertex of the one
+    // neighbours most of the other's. At levels 1 to 3, 41 of 43, 52 of 60 and 71 of 83 needles
+    // over 100 have a short edge (down to 0.004 voxel, or none: the triangles of no area join two
+    // copies of one point) whose two ends are both vertices of the level below, mostly not joined
+    // there: the refined tiling joins them, and neither may go, or levels would no longer nest.
     expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb");
 }
 
