@@ -63,12 +63,12 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                               double needleAspect = 0.0, bool lowerWorst = false, bool measureMove = false);
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
-/// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of
-/// a few voxels far above. Every such edge of a triangle over kShortEdgeAspect, or of a speck
-/// (all three edges that short), goes where no triangle turns over; twice this, the collapses
-/// folded the surface (aspect 1e9 on the aorta's top level). The bands of smooth tubes lie under kShortEdgeAspect (the phantom's worst is 9)
-/// and stay as tiled: collapsing their short edges near a cap's apex left 44 angles under 5
-/// degrees on the phantom's top level where there were none.
+/// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
+/// few voxels far above. Every such edge of a triangle over kShortEdgeAspect, or of a speck (all
+/// three edges that short), goes where no triangle turns over; twice this, the collapses folded the
+/// surface (aspect 1e9 on the aorta's top level). The bands of smooth tubes lie under
+/// kShortEdgeAspect (the phantom's worst is 9) and stay as tiled: collapsing their short edges near
+/// a cap's apex left 44 angles under 5 degrees on the phantom's top level where there were none.
 constexpr double kNeedleEdgeVoxels = 0.1;
 constexpr double kShortEdgeAspect = 10.0;
 
