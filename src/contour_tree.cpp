@@ -58,7 +58,9 @@ std::vector<std::vector<int>> ContourTree::forwardEdges(const ContourString& c)
     return f;
 }
 
-ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<int>>& rank) : mRays(c.rays)
+ContourTree::ContourTree(const ContourString& c, const std::vector<std::vector<int>>& rank)
+    : mRays(c.rays),
+      mCrossingRays(c.ray)
 {
     const int m = static_cast<int>(c.edges.size());
     int winding = 0;
@@ -291,7 +293,8 @@ int ContourTree::parseExcursion(const ContourString& c, int from, int to)
 
 std::size_t ContourTree::bytes() const
 {
-    std::size_t total = sizeof(*this) + mNodes.capacity() * sizeof(TreeNode) + mKeys.capacity() * sizeof(TraversalKey);
+    std::size_t total = sizeof(*this) + mNodes.capacity() * sizeof(TreeNode) + mKeys.capacity() * sizeof(TraversalKey) +
+                        mCrossingRays.capacity() * sizeof(int);
     for (const TreeNode& n : mNodes) total += n.children.capacity() * sizeof(int);
     return total;
 }

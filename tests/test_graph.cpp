@@ -640,6 +640,39 @@ TEST(Graph, TreesWhoseBranchesFuseIntoBlobsAreWithinAVoxelAtTheTopLevel)
     }
 }
 
+TEST(Graph, AWallARayGrazesIsTiledAlongIt)
+{
+    // Seed 4 of the crossing trees' generator, to a ten-thousandth of a voxel (the test above has
+    // it to a hundredth, where the graze does not happen), sliced along x. Near x = 53.5 a ray of
+    // the fused section runs along its wall for 25 pixels; the upper contour's ray clips a bulge
+    // a pixel deep that the lower one's misses, so the two contours parse that wall differently.
+    // Pairing the excursions' children by position fanned the wall's far end onto the lower
+    // contour's crossing at its near end, a triangle 1.68 voxels off the isosurface across a
+    // concave corner; aligned by their rays (tileBand), the wall's crossings pair along it.
+    const std::vector<Capsule> tree = {{{56, 56, 10}, {56, 56, 43.3167}, 7.0},
+                                       {{56, 56, 43.3167}, {74.9993, 63.5273, 49.0099}, 5.25},
+                                       {{74.9993, 63.5273, 49.0099}, {81.7559, 70.2795, 64.5691}, 3.9375},
+                                       {{74.9993, 63.5273, 49.0099}, {86.0629, 78.7374, 56.2094}, 3.9375},
+                                       {{74.9993, 63.5273, 49.0099}, {73.6302, 81.2065, 60.6565}, 3.9375},
+                                       {{56, 56, 43.3167}, {49.7887, 39.4197, 63.2361}, 5.25},
+                                       {{49.7887, 39.4197, 63.2361}, {43.6010, 47.7140, 77.8685}, 3.9375},
+                                       {{49.7887, 39.4197, 63.2361}, {37.5871, 38.2953, 76.5437}, 3.9375},
+                                       {{56, 56, 43.3167}, {57.3730, 46.3040, 60.9513}, 5.25},
+                                       {{57.3730, 46.3040, 60.9513}, {72.8489, 50.1234, 68.7276}, 3.9375},
+                                       {{57.3730, 46.3040, 60.9513}, {56.6242, 46.7363, 77.7878}, 3.9375},
+                                       {{57.3730, 46.3040, 60.9513}, {51.5727, 29.4191, 71.7611}, 3.9375}};
+    const Volume volume = capsuleUnion(tree, "grazed capsule tree");
+    MeshOptions options;
+    options.slicing.axis = Axis::X;
+    const Reconstruction reconstruction(volume, options);
+    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
+    const Validation v = Validator(volume).validate(top.mesh);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(v.topology.euler, reference.euler);
+    EXPECT_EQ(v.topology.components, reference.components);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+}
+
 TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
 {
     // Seeds 6 and 11 of the crossing trees' generator (to a hundredth of a voxel), sliced along x.

@@ -4,6 +4,8 @@
 
 #include "test_util.h"
 
+#include <algorithm>
+#include <cstdlib>
 #include <map>
 #include <set>
 
@@ -45,6 +47,33 @@ TEST(Tiler, AmbiguousAndFoldedContoursStillGiveClosedStrips)
             EXPECT_TRUE(test::isClosedStrip(tileBand(a, b), static_cast<std::uint32_t>(a.size()),
                                             static_cast<std::uint32_t>(b.size())));
         }
+}
+
+TEST(Tiler, ExcursionsThatParseDifferentlyAreTiledAlongTheirRays)
+{
+    // A ray grazes a wall: both contours leave ray 4 backward and come back along the wall,
+    // crossing rays 3 and 2 twice, but the upper one (B) touches ray 4 in between (it clips a
+    // bulge the lower one misses). A's excursion parses as D_I and one composite, B's as two
+    // D_I + composite pairs, so pairing children by position fans B's first pair (rays 3, 2, 2,
+    // 3, 4) onto A's crossing on ray 4, and A's composite onto B's second pair: spanning edges
+    // two rays long. Aligned by their rays, no spanning edge skips more than one ray.
+    const auto a = test::parseEdges("F F F F D_I B B D_O F D_I B D_O F F F F F F");
+    const auto b = test::parseEdges("F F F F D_I B B D_O F F D_I B D_O F F F F F");
+    const ContourString sa = stringOfEdges(a), sb = stringOfEdges(b);
+    ASSERT_EQ(sa.rays, 8);
+    ASSERT_EQ(sb.rays, 8);
+    const std::uint32_t m = static_cast<std::uint32_t>(a.size()), n = static_cast<std::uint32_t>(b.size());
+    const std::vector<Triangle> band = tileBand(a, b);
+    EXPECT_TRUE(test::isClosedStrip(band, m, n));
+    auto rayOf = [&](std::uint32_t v) { return v < m ? sa.ray[v] : sb.ray[v - m]; };
+    int widest = 0;
+    for (const Triangle& t : band)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t u = t[k], v = t[(k + 1) % 3];
+            const int gap = std::abs(rayOf(u) - rayOf(v)); // the short way round 8 rays
+            if ((u < m) != (v < m)) widest = std::max(widest, std::min(gap, 8 - gap));
+        }
+    EXPECT_EQ(widest, 1);
 }
 
 TEST(Tiler, CapIsAFanOfMTrianglesUsingEachContourEdgeOnce)

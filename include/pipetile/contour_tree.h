@@ -90,6 +90,8 @@ public:
     int mainEdge(int x) const { return mNodes[levelOne(x)].edge; }
     /// Traversal key of every crossing.
     const std::vector<TraversalKey>& keys() const { return mKeys; }
+    /// Ray index of every crossing (what the tiler aligns excursions that parse differently by).
+    const std::vector<int>& crossingRays() const { return mCrossingRays; }
     /// Index of the crossing where F_0 starts: the traversal begins there.
     int startCrossing() const { return mStart; }
     /// Number of sectors holding more than one F edge.
@@ -111,6 +113,7 @@ private:
     int mAmbiguous = 0;
     std::vector<TreeNode> mNodes;
     std::vector<TraversalKey> mKeys;
+    std::vector<int> mCrossingRays;
 };
 
 } // namespace pipetile

@@ -20,6 +20,9 @@ namespace pipetile {
 /// edges make a quad (two triangles, split along the same diagonal everywhere); excursions of the
 /// same type meet child by child (traversal cases 1 and 2); a child, or a whole excursion, with
 /// no partner is fanned to the other contour's vertex where the traversal stands (case 3).
+/// Two excursions of one sector that reach the same rays but parse differently (a ray grazing a
+/// wall clips a bulge on one contour only) are paired along their rays instead: the strip whose
+/// spanning edges skip the fewest rays, ties going the traversal's way. Still integers only.
 /// Both contours wind counterclockwise seen from +w. Vertex ids: A's crossing i is i, B's
 /// crossing j is m + j.
 ///
