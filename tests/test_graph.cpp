@@ -560,6 +560,25 @@ const std::vector<std::vector<Capsule>>& crossingTrees()
 
 } // namespace
 
+namespace {
+
+// Sliced along x, the top level has the isosurface's Euler characteristic and components, and
+// lies within a voxel of it.
+void expectTopLevelOfTheIsosurfaceAlongX(const Volume& volume)
+{
+    MeshOptions options;
+    options.slicing.axis = Axis::X;
+    const Reconstruction reconstruction(volume, options);
+    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
+    const Validation v = Validator(volume).validate(top.mesh);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(v.topology.euler, reference.euler);
+    EXPECT_EQ(v.topology.components, reference.components);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+}
+
+} // namespace
+
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
 {
     // The check the tool warns by (Cli.WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss): on trees whose
@@ -627,16 +646,7 @@ TEST(Graph, TreesWhoseBranchesFuseIntoBlobsAreWithinAVoxelAtTheTopLevel)
                                                       {{57.37, 46.3, 60.95}, {51.57, 29.42, 71.76}, 3.9375}}};
     for (std::size_t k = 0; k < trees.size(); ++k) {
         SCOPED_TRACE("seed " + std::to_string(k + 3));
-        const Volume volume = capsuleUnion(trees[k], "fused capsule tree");
-        MeshOptions options;
-        options.slicing.axis = Axis::X;
-        const Reconstruction reconstruction(volume, options);
-        const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
-        const Validation v = Validator(volume).validate(top.mesh);
-        const Topology reference = checkTopology(isosurface(volume, 0.0));
-        EXPECT_EQ(v.topology.euler, reference.euler);
-        EXPECT_EQ(v.topology.components, reference.components);
-        EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+        expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(trees[k], "fused capsule tree"));
     }
 }
 
@@ -661,16 +671,7 @@ TEST(Graph, AWallARayGrazesIsTiledAlongIt)
                                        {{57.3730, 46.3040, 60.9513}, {72.8489, 50.1234, 68.7276}, 3.9375},
                                        {{57.3730, 46.3040, 60.9513}, {56.6242, 46.7363, 77.7878}, 3.9375},
                                        {{57.3730, 46.3040, 60.9513}, {51.5727, 29.4191, 71.7611}, 3.9375}};
-    const Volume volume = capsuleUnion(tree, "grazed capsule tree");
-    MeshOptions options;
-    options.slicing.axis = Axis::X;
-    const Reconstruction reconstruction(volume, options);
-    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
-    const Validation v = Validator(volume).validate(top.mesh);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    EXPECT_EQ(v.topology.euler, reference.euler);
-    EXPECT_EQ(v.topology.components, reference.components);
-    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(tree, "grazed capsule tree"));
 }
 
 TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
