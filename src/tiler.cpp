@@ -145,7 +145,7 @@ std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b)
     std::uint32_t i = 0, j = 0;
     while (i < m || j < n) {
         const std::uint32_t p = wa.excursionAfter(i), q = wb.excursionAfter(j);
-        if (p > 0 && q > 0 && wa.key(i + 1).sector == wb.key(j + 1).sector &&
+        if (p > 0 && q > 0 && a.rays() == b.rays() && wa.key(i + 1).sector == wb.key(j + 1).sector &&
             wa.key(i + 1).slot == wb.key(j + 1).slot && (p + 1) * std::size_t{q + 1} <= kMostAlignmentStates &&
             sameWallParsedDifferently(wa, i, p, wb, j, q)) {
             alignExcursions(wa, i, p, wb, j, q, steps);
