@@ -230,10 +230,19 @@ private:
     void centreParts();
     /// The central point of `loop` that follows `before`'s along their tube (see followCentres);
     /// `followed` (out) says whether it is `before`'s moved with the section, not a clear point
-    /// found near it.
-    static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop, bool* followed = nullptr);
+    /// found near it. `spacing`, the planes' distance apart, tells a section that changed from
+    /// one that travelled (sectionChanged); 0 where unknown.
+    static glm::dvec2 followedCentre(const SliceLoop& before, const SliceLoop& loop, bool* followed = nullptr,
+                                     double spacing = 0.0);
+    /// Whether `loop`'s centroid moved from `before`'s too far for the planes' `spacing` to be a
+    /// tube travelling, and standing keeps the centre as deep as moving to `travelled` would.
+    static bool sectionChanged(const SliceLoop& before, const SliceLoop& loop, const glm::dvec2& travelled,
+                               double spacing);
+    /// The distance between the planes of `tube`'s members i and k.
+    double spacingBetween(const Tube& tube, std::size_t i, std::size_t k) const;
     /// Moves `loop`'s central point (view and profile) to followedCentre's; whether it moved.
-    bool followCentre(const SliceLoop& from, SliceLoop& loop, bool& followed, bool onlyFollowed = false) const;
+    bool followCentre(const SliceLoop& from, SliceLoop& loop, bool& followed, double spacing,
+                      bool onlyFollowed = false) const;
     /// The centres before the tube's member k follow its centre back, where that puts the bands
     /// in better register (see followCentres).
     void followBack(const Tube& tube, std::size_t k);
