@@ -696,20 +696,17 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
     auto middleLength = [&](int p, int h) {
         return glm::distance(0.5 * (wall[(p + walls - 1) % walls] + wall[p]), 0.5 * (hole[h] + hole[(h + 1) % holes]));
     };
-    double shortest = std::numeric_limits<double>::infinity();
-    for (int p = 0; p < walls; ++p)
-        for (int h = 0; h < holes; ++h) shortest = std::min(shortest, middleLength(p, h));
     std::vector<Slit> slits;
+    slits.reserve(static_cast<std::size_t>(walls) * holes);
     for (int p = 0; p < walls; ++p)
-        for (int h = 0; h < holes; ++h)
-            if (const double length = middleLength(p, h); length <= 2.0 * shortest + 4.0)
-                slits.push_back({length, p, h});
+        for (int h = 0; h < holes; ++h) slits.push_back({middleLength(p, h), p, h});
     std::sort(slits.begin(), slits.end(), [](const Slit& a, const Slit& b) {
         return std::tie(a.length, a.wall, a.hole) < std::tie(b.length, b.wall, b.hole);
     });
+    const double longest = 2.0 * slits.front().length + 4.0;
     double bestBlocked = std::numeric_limits<double>::infinity();
     for (const Slit& slit : slits) {
-        if (bestBlocked == 0.0) break; // the shortest unblocked slit is found
+        if (bestBlocked == 0.0 || slit.length > longest) break; // the shortest unblocked slit is found
         const glm::dvec2 &w0 = wall[(slit.wall + walls - 1) % walls], &w1 = wall[slit.wall];
         const glm::dvec2 &h0 = hole[slit.hole], &h1 = hole[(slit.hole + 1) % holes];
         // The slit's quadrilateral, counterclockwise, with crossings w0-h0 and w1-h1.
