@@ -134,6 +134,16 @@ bool sameWallParsedDifferently(const Walk& a, std::uint32_t i, std::uint32_t p, 
     return false;
 }
 
+// Whether the excursions after positions i and j (p and q crossings) are tiled along their rays:
+// both excursions of one sector and slot, of contours cast with as many rays, within the bound,
+// crossing the same wall but parsed differently.
+bool alignedByRays(const Walk& a, std::uint32_t i, std::uint32_t p, const Walk& b, std::uint32_t j, std::uint32_t q)
+{
+    return p > 0 && q > 0 && a.tree.rays() == b.tree.rays() && a.key(i + 1).sector == b.key(j + 1).sector &&
+           a.key(i + 1).slot == b.key(j + 1).slot && (p + 1) * std::size_t{q + 1} <= kMostAlignmentStates &&
+           sameWallParsedDifferently(a, i, p, b, j, q);
+}
+
 } // namespace
 
 std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b)
@@ -145,9 +155,7 @@ std::vector<Triangle> tileBand(const ContourTree& a, const ContourTree& b)
     std::uint32_t i = 0, j = 0;
     while (i < m || j < n) {
         const std::uint32_t p = wa.excursionAfter(i), q = wb.excursionAfter(j);
-        if (p > 0 && q > 0 && a.rays() == b.rays() && wa.key(i + 1).sector == wb.key(j + 1).sector &&
-            wa.key(i + 1).slot == wb.key(j + 1).slot && (p + 1) * std::size_t{q + 1} <= kMostAlignmentStates &&
-            sameWallParsedDifferently(wa, i, p, wb, j, q)) {
+        if (alignedByRays(wa, i, p, wb, j, q)) {
             alignExcursions(wa, i, p, wb, j, q, steps);
             i += p;
             j += q;
