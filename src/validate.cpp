@@ -304,15 +304,22 @@ BlockSign blockSign(const openvdb::FloatTree::LeafNodeType& leaf, float iso)
     return all ? 1 : some ? kMixed : 0;
 }
 
-// V, E and F of the isosurface as volumeToMesh meshes it (vertices, edges, faces).
-using CellCounts = std::array<long long, 3>;
+// V, E and F of the isosurface as volumeToMesh meshes it (vertices, edges, faces), per cell layer
+// along one axis: layer k holds the cells whose origin lies at k on it, an edge between two cells
+// belongs to the higher one's layer, and a face to the layer of the cell it is counted at (the
+// other cells around its grid edge lie in that layer or below). So the sum over layers up to k is
+// the Euler characteristic of the mesh's part whose vertices lie in cells below k + 1.
+struct LayerCounts {
+    int axis = 0, first = 0;
+    std::vector<std::array<long long, 3>> layers;
+    void add(int layer, int what, long long count) { layers[static_cast<std::size_t>(layer - first)][what] += count; }
+};
 
 // Adds the counts of the crossing cells that belong to `leaf`: one vertex per edge group, one
 // edge per distinct pair of groups joined across a face, one face per crossing grid edge.
 void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb::FloatGrid::ConstAccessor& accessor,
-                    float iso, CellCounts& counts)
+                    float iso, LayerCounts& counts)
 {
-    auto& [vertices, edges, faces] = counts;
     const CellBlock cells(accessor, leaf.origin(), iso);
     for (int x = -1; x < 8; ++x)
         for (int y = -1; y < 8; ++y) {
@@ -331,10 +338,11 @@ void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb:
                     if (n == 8 || cells.leafAt(x + kCorners[n][0], y + kCorners[n][1], z + kCorners[n][2]) != &leaf)
                         continue;
                 }
+                const int layer = (leaf.origin() + openvdb::Coord(x, y, z))[counts.axis];
                 const std::uint8_t signs = cells.signs(x, y, z, accessor, iso);
-                vertices += vtm::sEdgeGroupTable[signs][0];
+                counts.add(layer, 0, vtm::sEdgeGroupTable[signs][0]);
                 for (int axis = 0; axis < 3; ++axis) {
-                    if (vtm::sEdgeGroupTable[signs][kCornerEdges[axis]] != 0) ++faces;
+                    if (vtm::sEdgeGroupTable[signs][kCornerEdges[axis]] != 0) counts.add(layer, 2, 1);
                     // Groups of this cell and the next joined across their face, each pair once.
                     int pairs[4], count = 0;
                     std::uint8_t next = 0;
@@ -346,7 +354,7 @@ void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb:
                         const int pair = mine * 16 + vtm::sEdgeGroupTable[next][edge[1]];
                         if (std::find(pairs, pairs + count, pair) == pairs + count) pairs[count++] = pair;
                     }
-                    edges += count;
+                    counts.add(layer + (axis == counts.axis ? 1 : 0), 1, count);
                 }
             }
         }
@@ -354,7 +362,7 @@ void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb:
 
 } // namespace
 
-long long isosurfaceEuler(const Volume& volume)
+EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis)
 {
     const openvdb::FloatGrid& grid = gridOf(volume);
     const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
@@ -369,26 +377,76 @@ long long isosurfaceEuler(const Volume& volume)
         return it != signOf.end() ? it->second : vtm::isInsideValue(accessor.getValue(origin), iso);
     };
     std::vector<const openvdb::FloatTree::LeafNodeType*> crossed;
+    int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
     for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf) {
         const openvdb::Coord origin = leaf->origin();
         const BlockSign own = signOf[origin];
         bool uniform = own != kMixed;
         for (int b = 0; b < 27 && uniform; ++b) uniform = neighbourSign(neighbourBlock(origin, b)) == own;
-        if (!uniform) crossed.push_back(&*leaf);
+        if (uniform) continue;
+        crossed.push_back(&*leaf);
+        lo = std::min(lo, origin[axis]);
+        hi = std::max(hi, origin[axis]);
     }
-    // V, E and F, summed over the leaves in parallel (an accessor per task: they are not shared).
-    const CellCounts counts = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, crossed.size()), CellCounts{0, 0, 0},
-        [&](const tbb::blocked_range<std::size_t>& range, CellCounts sum) {
+    EulerProfile profile;
+    if (crossed.empty()) return profile;
+    // A leaf's cells lie at its origin - 1 .. + 7; an edge counted there may belong to + 8.
+    LayerCounts zero{axis, lo - 1, std::vector<std::array<long long, 3>>(static_cast<std::size_t>(hi - lo + 10))};
+    // Summed over the leaves in parallel (an accessor per task: they are not shared).
+    const LayerCounts counts = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, crossed.size()), zero,
+        [&](const tbb::blocked_range<std::size_t>& range, LayerCounts sum) {
             const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
             for (std::size_t i = range.begin(); i != range.end(); ++i) countLeafCells(*crossed[i], accessor, iso, sum);
             return sum;
         },
-        [](CellCounts a, const CellCounts& b) {
-            for (int k = 0; k < 3; ++k) a[k] += b[k];
+        [](LayerCounts a, const LayerCounts& b) {
+            for (std::size_t k = 0; k < a.layers.size(); ++k)
+                for (int what = 0; what < 3; ++what) a.layers[k][what] += b.layers[k][what];
             return a;
         });
-    return counts[0] - counts[1] + counts[2];
+    profile.first = counts.first;
+    for (const auto& [vertices, edges, faces] : counts.layers) profile.layers.push_back(vertices - edges + faces);
+    return profile;
+}
+
+long long EulerProfile::total() const
+{
+    return std::accumulate(layers.begin(), layers.end(), 0LL);
+}
+
+long long isosurfaceEuler(const Volume& volume)
+{
+    return isosurfaceEulerProfile(volume, 0).total();
+}
+
+std::vector<EulerDifference> eulerDifferences(const EulerProfile& profile, const ContourGraph& graph,
+                                              const std::vector<double>& planeW)
+{
+    std::vector<EulerDifference> changes;
+    if (graph.slabs.empty()) return changes;
+    const double none = std::numeric_limits<double>::infinity();
+    double wBefore = -none;
+    long long slabs = 0, cells = 0, difference = 0;
+    const auto compare = [&](double w, long long cellsBelow) {
+        if (cellsBelow - slabs != difference) changes.push_back({wBefore, w, cellsBelow - slabs - difference});
+        difference = cellsBelow - slabs;
+        wBefore = w;
+    };
+    std::size_t layer = 0;
+    for (std::size_t k = 0; k < graph.order.size(); ++k) {
+        // The first plane's loops start the surface (a disc each); each slab adds its pieces'.
+        for (const SlabPiece& p : k == 0 ? graph.slabs[0].pieces : graph.slabs[k - 1].pieces)
+            slabs += k == 0 ? static_cast<long long>(p.below.size()) : p.euler();
+        const double w = planeW[static_cast<std::size_t>(graph.order[k])];
+        if (w != std::floor(w)) continue; // the cells part the isosurface at voxel planes only
+        for (; layer < profile.layers.size() && profile.first + static_cast<double>(layer) < w; ++layer)
+            cells += profile.layers[layer];
+        compare(w, cells);
+    }
+    for (const SlabPiece& p : graph.slabs.back().pieces) slabs += static_cast<long long>(p.above.size()); // ends
+    compare(none, profile.total());
+    return changes;
 }
 
 std::vector<glm::dvec3> errorColors(const std::vector<double>& distances, double redAt)

@@ -203,6 +203,7 @@ TEST(Cli, WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss)
     // Validate.CountsTheIsosurfacesEulerCharacteristicFromItsCells), and the tool warns exactly when
     // the slabs' sum differs from it. The smoke's handles at the voxel scale are missed (the known
     // gap Graph.KnownGapTheSmokeHasTheIsosurfaceTopology); the aorta's slabs see its topology.
+    // Where they part is Graph.TheCellsLocateTheHandlesTheSlabsMiss's.
     TempDir dir;
     for (const char* file : {"gaffer_smoke_fog.vdb", "vmtk_aorta_ls.vdb"}) {
         SCOPED_TRACE(file);
@@ -216,6 +217,13 @@ TEST(Cli, WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss)
                                        " (counted from its cells as volumeToMesh sees them) but the slabs' is " +
                                        std::to_string(slabs)) != std::string::npos;
         EXPECT_EQ(warned, slabs != cells) << r.err;
+        // Where they part (validate.h, eulerDifferences): the changes add up to the difference,
+        // and the warning names the slabs along the report's axis.
+        long long sum = 0;
+        for (const nlohmann::json& d : events["euler_differences"]) sum += d["difference"].get<long long>();
+        EXPECT_EQ(sum, cells - slabs);
+        const std::string where = "the two counts part between index " + readJson(report)["axis"].get<std::string>();
+        EXPECT_EQ(r.err.find(where) != std::string::npos, slabs != cells) << r.err;
     }
 }
 

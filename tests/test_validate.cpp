@@ -257,6 +257,34 @@ TEST(Validate, ThresholdsOnRealAorta)
     expectWithinThresholds(readVolume(test::realData("vmtk_aorta_ls.vdb")));
 }
 
+TEST(Validate, TheCellLayersFollowTheHeightFunctionsCriticalPoints)
+{
+    // torus-standing (phantoms.cpp): a tube of radius 6 around a racetrack standing along z, z in
+    // [10, 102], its hole z in [22, 90]. Along z the surface has a minimum at 10 (+1), saddles at
+    // the hole's ends 22 and 90 (-1 each) and a maximum at 102 (+1) (Morse): the part below a
+    // plane is a disc (1) up to 22, an annulus (0) up to 90, then a torus less a disc (-1).
+    // Planes within a voxel and a half of a critical point are left out: its cells straddle it.
+    const Volume& volume = test::cachedSample("torus-standing");
+    const EulerProfile profile = isosurfaceEulerProfile(volume, 2);
+    auto below = [&](int plane) {
+        long long sum = 0;
+        for (std::size_t k = 0; k < profile.layers.size() && profile.first + static_cast<int>(k) < plane; ++k)
+            sum += profile.layers[k];
+        return sum;
+    };
+    for (int plane = 0; plane <= 112; ++plane) {
+        SCOPED_TRACE("z = " + std::to_string(plane));
+        const bool nearCritical = std::abs(plane - 10) < 2 || std::abs(plane - 22) < 2 || std::abs(plane - 90) < 2 ||
+                                  std::abs(plane - 102) < 2;
+        if (nearCritical) continue;
+        const long long expected = plane < 10 ? 0 : plane < 22 ? 1 : plane < 90 ? 0 : plane < 102 ? -1 : 0;
+        EXPECT_EQ(below(plane), expected);
+    }
+    // Along any axis the layers add up to the whole count.
+    for (int axis = 0; axis < 3; ++axis)
+        EXPECT_EQ(isosurfaceEulerProfile(volume, axis).total(), isosurfaceEuler(volume));
+}
+
 TEST(Validate, CountsTheIsosurfacesEulerCharacteristicFromItsCells)
 {
     // Each sample's Euler characteristic is known from its shape (phantoms.cpp), and volumeToMesh's

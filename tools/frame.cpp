@@ -196,18 +196,44 @@ void warnIfUnresolved(const Volume& volume, const ReconstructionStats& stats, co
 
 // The slabs' labelling counts no handle that lies within one slab (voxels joined around a corner
 // of a cell, say), so the isosurface can have handles the mesh lacks though every piece fits a
-// construction: the cells' own count says so, and the user is told rather than left to find it.
-void warnIfHandlesMissed(const Volume& volume, const json& events, const Notify& notify)
+// construction: the cells' own count says so, and where (the report's euler_differences), and the
+// user is told rather than left to find it.
+void warnIfHandlesMissed(const Volume& volume, const json& report, const Notify& notify)
 {
+    const json& events = report["events"];
     const long long slabs = events["euler"].get<long long>(), cells = events["isosurface_euler"].get<long long>();
     if (slabs == cells) return;
     const long long handles = (std::llabs(slabs - cells) + 1) / 2; // a handle changes the Euler characteristic by 2
+    // The slabs where the difference arises; a change that the next one undoes is one critical
+    // point that the two count on either side of a plane, not a handle.
+    const json& changes = events["euler_differences"];
+    const std::string axis = report["axis"].get<std::string>();
+    std::string where;
+    int listed = 0, more = 0;
+    for (std::size_t k = 0; k < changes.size(); ++k) {
+        const long long d = changes[k]["difference"].get<long long>();
+        const bool undone = (k + 1 < changes.size() && changes[k + 1]["difference"].get<long long>() == -d) ||
+                            (k > 0 && changes[k - 1]["difference"].get<long long>() == -d);
+        if (undone) continue;
+        if (listed == 4) {
+            ++more;
+            continue;
+        }
+        const auto plane = [](const json& w) {
+            return w.is_null() ? std::string("the end") : format("%g", w.get<double>());
+        };
+        where += format("%s%s %s and %s (by %+lld)", listed ? ", " : "", axis.c_str(),
+                        plane(changes[k]["w_below"]).c_str(), plane(changes[k]["w_above"]).c_str(), d);
+        ++listed;
+    }
+    if (more) where += format(" and %d more", more);
     notify("warning",
            format("grid '%s': the isosurface's Euler characteristic is %lld (counted from its cells as volumeToMesh "
-                  "sees them) but the slabs' is %lld: the mesh %s %lld handle%s at the voxel scale %s (--validate "
+                  "sees them) but the slabs' is %lld: the mesh %s %lld handle%s at the voxel scale %s%s%s (--validate "
                   "compares the topologies)",
                   volume.gridName().c_str(), cells, slabs, slabs > cells ? "lacks" : "has", handles,
-                  handles == 1 ? "" : "s", slabs > cells ? "that no slab piece shows" : "that the isosurface lacks"));
+                  handles == 1 ? "" : "s", slabs > cells ? "that no slab piece shows" : "that the isosurface lacks",
+                  listed ? "; the two counts part between index " : "", where.c_str()));
 }
 
 } // namespace
@@ -269,7 +295,7 @@ json meshFrame(const FrameJob& job)
     const NestedLevels nested = nest ? nestLevels(levels) : NestedLevels{};
 
     json report = meshReport(volume, reconstruction);
-    warnIfHandlesMissed(volume, report["events"], job.notify);
+    warnIfHandlesMissed(volume, report, job.notify);
     for (const LevelMesh& level : levels) {
         // The level's own topology is a linear pass over its triangles: only when a report is asked for.
         report["levels"].push_back(levelReport(level, !job.report.empty() || !job.html.empty()));

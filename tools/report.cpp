@@ -4,6 +4,8 @@
 
 #include <pipetile/validate.h>
 
+#include <cmath>
+
 namespace pipetile::tools {
 
 using nlohmann::json;
@@ -53,6 +55,17 @@ json graphJson(const Reconstruction& reconstruction)
     return {{"segments", segments}, {"junctions", junctions}, {"unresolved", unresolved}};
 }
 
+// The planes where the slabs' Euler characteristic parts from the isosurface's (validate.h).
+json eulerDifferencesJson(const EulerProfile& isosurface, const Reconstruction& reconstruction)
+{
+    json changes = json::array();
+    const auto plane = [](double w) { return std::isfinite(w) ? json(w) : json(nullptr); };
+    for (const EulerDifference& d :
+         eulerDifferences(isosurface, reconstruction.graph(), reconstruction.planePositions()))
+        changes.push_back({{"w_below", plane(d.wBelow)}, {"w_above", plane(d.wAbove)}, {"difference", d.difference}});
+    return changes;
+}
+
 } // namespace
 
 const char* axisName(int axis)
@@ -69,6 +82,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
 {
     const ReconstructionStats& stats = reconstruction.stats();
     const MeshOptions& options = reconstruction.options();
+    const EulerProfile isosurface = isosurfaceEulerProfile(volume, reconstruction.plan().axis);
     return {
         {"input", volume.source()},
         {"grid", volume.gridName()},
@@ -110,7 +124,8 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"planes_added", stats.addedPlanes},
           {"euler", stats.eventEuler},
           {"built_euler", stats.caps - stats.saddles},
-          {"isosurface_euler", isosurfaceEuler(volume)}}},
+          {"isosurface_euler", isosurface.total()},
+          {"euler_differences", eulerDifferencesJson(isosurface, reconstruction)}}},
         {"graph", graphJson(reconstruction)},
         {"levels", json::array()},
     };

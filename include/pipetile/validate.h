@@ -2,6 +2,7 @@
 // the volume it came from (openvdb::tools::volumeToMesh, adaptivity 0, quads split).
 #pragma once
 
+#include <pipetile/graph.h>
 #include <pipetile/mesh_io.h>
 #include <pipetile/volume.h>
 
@@ -127,6 +128,32 @@ TriangleMesh isosurface(const Volume& volume, double adaptivity, double* seconds
 /// fraction of volumeToMesh's time: the contour graph's sum is checked against it (handles at the
 /// voxel scale, which the slabs' labelling does not count).
 long long isosurfaceEuler(const Volume& volume);
+
+/// The same count along the index axis `axis` (0, 1, 2: x, y, z), layer by layer: layers[k] is the
+/// share of the cells whose origin lies at first + k on that axis (an edge between two layers
+/// counts in the higher). The sum of layers[0..k] is the Euler characteristic of the isosurface's
+/// part below the voxel plane first + k + 1, up to critical points within a cell of it: compared
+/// plane by plane with the contour graph's own sums, it says where a missed handle lies.
+struct EulerProfile {
+    int first = 0;
+    std::vector<long long> layers;
+    long long total() const;
+};
+EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis);
+
+/// Where the contour graph's Euler characteristic parts from the isosurface's: both summed from
+/// below up to each voxel plane of the graph (the graph's from its pieces, the isosurface's from
+/// `profile`, along the graph's axis), and past the last plane. Each change of their difference
+/// from one such plane to the next is listed, with the two planes (index w; infinite past the first
+/// or last). The differences add up to the isosurface's Euler characteristic less the graph's. A
+/// difference of -2 is a handle of the isosurface that no slab piece shows; a change undone at the
+/// next plane is a critical point that the two place on either side of a plane.
+struct EulerDifference {
+    double wBelow = 0.0, wAbove = 0.0;
+    long long difference = 0;
+};
+std::vector<EulerDifference> eulerDifferences(const EulerProfile& profile, const ContourGraph& graph,
+                                              const std::vector<double>& planeW);
 
 /// Colours for a per-vertex error: blue at 0, through green and yellow, to red at `redAt` and
 /// beyond (world units). For a PLY a user can open in any viewer.
