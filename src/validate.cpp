@@ -433,11 +433,12 @@ std::vector<EulerDifference> eulerDifferences(const EulerProfile& profile, const
         difference = cellsBelow - slabs;
         wBefore = w;
     };
+    // The first plane's loops start the surface (a disc each); each slab adds its pieces'.
+    for (const SlabPiece& p : graph.slabs.front().pieces) slabs += static_cast<long long>(p.below.size());
     std::size_t layer = 0;
     for (std::size_t k = 0; k < graph.order.size(); ++k) {
-        // The first plane's loops start the surface (a disc each); each slab adds its pieces'.
-        for (const SlabPiece& p : k == 0 ? graph.slabs[0].pieces : graph.slabs[k - 1].pieces)
-            slabs += k == 0 ? static_cast<long long>(p.below.size()) : p.euler();
+        if (k > 0)
+            for (const SlabPiece& p : graph.slabs[k - 1].pieces) slabs += p.euler();
         const double w = planeW[static_cast<std::size_t>(graph.order[k])];
         if (w != std::floor(w)) continue; // the cells part the isosurface at voxel planes only
         for (; layer < profile.layers.size() && profile.first + static_cast<double>(layer) < w; ++layer)
