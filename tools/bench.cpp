@@ -90,10 +90,12 @@ TriangleMesh simplified(const TriangleMesh& mesh, std::size_t targetTriangles)
     }
     std::vector<unsigned int> out(indices.size());
     // target_error 1 (relative to the mesh extent): let the triangle count decide, as a user
-    // asking for "this many triangles" would.
-    const std::size_t count =
-        meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(), mesh.vertices.size(),
-                         3 * sizeof(float), 3 * targetTriangles, 1.0f, 0, nullptr);
+    // asking for "this many triangles" would. A level finer than the uniform isosurface (a thin
+    // vessel's top level) asks for more than there is: the uniform mesh then stays whole (the
+    // simplifier refuses a target above its input).
+    const std::size_t target = std::min(3 * targetTriangles, indices.size());
+    const std::size_t count = meshopt_simplify(out.data(), indices.data(), indices.size(), positions.data(),
+                                               mesh.vertices.size(), 3 * sizeof(float), target, 1.0f, 0, nullptr);
     TriangleMesh result;
     result.vertices = mesh.vertices;
     for (std::size_t i = 0; i + 2 < count; i += 3) result.triangles.push_back({out[i], out[i + 1], out[i + 2]});
