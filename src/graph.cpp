@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -464,72 +465,275 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
     return change;
 }
 
+long long EulerProfile::total() const
+{
+    return std::accumulate(layers.begin(), layers.end(), 0LL);
+}
+
+long long EulerProfile::between(double wBelow, double wAbove) const
+{
+    long long sum = 0;
+    for (std::size_t k = 0; k < layers.size(); ++k) {
+        const double origin = first + static_cast<double>(k);
+        if (origin >= wBelow && origin < wAbove) sum += layers[k];
+    }
+    return sum;
+}
+
+namespace {
+
+int eulerOf(const std::vector<SlabPiece>& pieces)
+{
+    int sum = 0;
+    for (const SlabPiece& p : pieces) sum += p.euler();
+    return sum;
+}
+
+bool bandsOnly(const std::vector<SlabPiece>& pieces)
+{
+    return std::all_of(pieces.begin(), pieces.end(), [](const SlabPiece& p) { return p.kind == EventKind::Band; });
+}
+
+// The stages of buildContourGraph: each slab halved while its events need it (refine), then the
+// ranges between voxel planes whose pieces do not add up to the cells' cut again (matchCells).
+class GraphBuilder {
+public:
+    GraphBuilder(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes, double minThickness,
+                 double maxShapeChange, const std::function<int(double w)>& addPlane,
+                 const std::function<void()>& dropLastPlane)
+        : mVolume(volume),
+          mPlan(plan),
+          mPlanes(planes),
+          mMinThickness(minThickness),
+          mMaxShapeChange(maxShapeChange),
+          mAddPlane(addPlane),
+          mDropLastPlane(dropLastPlane)
+    {
+    }
+
+    std::vector<SlabPiece> connect(int below, int above) const
+    {
+        return connectThroughSlab(mVolume, mPlan, mPlanes[below], mPlanes[above]);
+    }
+
+    // Halves the slab while it is thicker than its pieces need; appends the slabs to `out` in
+    // order of w.
+    void refine(int below, int above, std::vector<SlabPiece> pieces, std::vector<ContourGraph::Slab>& out) const;
+
+    // `slabs` (in order of w) with each range between two voxel planes whose pieces do not add up
+    // to `cells` cut again where that makes them; the number of such ranges in `matches`.
+    std::vector<ContourGraph::Slab> matchCells(std::vector<ContourGraph::Slab> slabs, const EulerProfile& cells,
+                                               int& matches) const;
+
+private:
+    double thickness(int below, int above, const std::vector<SlabPiece>& pieces) const;
+    bool cutRange(const std::vector<ContourGraph::Slab>& range, long long target,
+                  std::vector<ContourGraph::Slab>& out) const;
+
+    const Volume& mVolume;
+    const SlicePlan& mPlan;
+    std::vector<PlaneLoops>& mPlanes;
+    double mMinThickness, mMaxShapeChange;
+    const std::function<int(double w)>& mAddPlane;
+    const std::function<void()>& mDropLastPlane;
+};
+
+// How thin the slab must get: an unresolved piece (two saddles in one slab, say) is halved down
+// to an eighth of minThickness, where events at different heights fall apart; a wall ending with
+// several holes, or a band changing shape fast, to a quarter; a fork or merge down to
+// minThickness; anything else is left as it is (0).
+double GraphBuilder::thickness(int below, int above, const std::vector<SlabPiece>& pieces) const
+{
+    double target = 0.0;
+    for (const SlabPiece& p : pieces) {
+        if (p.kind == EventKind::Unresolved) return mMinThickness / 8.0;
+        // A face with several holes is flat: it must lie where the wall ends.
+        if (p.kind == EventKind::Rim && p.below.size() + p.above.size() > 2) target = mMinThickness / 4.0;
+        if (p.kind == EventKind::Fork || p.kind == EventKind::Merge)
+            target = target == 0.0 ? mMinThickness : std::min(target, mMinThickness);
+        // A band's change halves with its slab where the shape changes smoothly; where it does
+        // not (the horns of a crescent running along a pipe's open rim), it takes planes closer
+        // than minThickness.
+        if (p.kind == EventKind::Band &&
+            shapeChange(mPlanes[below], p.below[0], mPlanes[above], p.above[0]) > mMaxShapeChange)
+            target = target == 0.0 ? mMinThickness / 4.0 : std::min(target, mMinThickness / 4.0);
+    }
+    return target;
+}
+
+void GraphBuilder::refine(int below, int above, std::vector<SlabPiece> pieces,
+                          std::vector<ContourGraph::Slab>& out) const
+{
+    const double wBelow = mPlanes[below].w, wAbove = mPlanes[above].w;
+    const double needed = thickness(below, above, pieces);
+    if (needed == 0.0 || wAbove - wBelow <= needed) {
+        out.push_back({below, above, std::move(pieces)});
+        return;
+    }
+    const int middle = mAddPlane(0.5 * (wBelow + wAbove));
+    std::vector<SlabPiece> lower = connect(below, middle);
+    std::vector<SlabPiece> upper = connect(middle, above);
+    // Below minThickness a slab of bands is halved for its shape alone, and a plane added for
+    // shape must not change what the slab's own planes decided: a neck that pinches for an
+    // instant between voxel planes (a random capsule tree: a fork and a merge a quarter voxel
+    // apart, a handle the isosurface does not have) keeps the slab whole.
+    // Nor may a plane between voxel planes: the slab's labelling saw the voxel planes around
+    // it, and an interpolated plane can miss what joins them (a contact its image shows no
+    // bridge for). Its pieces' Euler characteristics must add up to the slab's.
+    const double wMiddle = mPlanes[middle].w;
+    const bool betweenVoxelPlanes = wMiddle != std::floor(wMiddle);
+    if ((betweenVoxelPlanes && eulerOf(lower) + eulerOf(upper) != eulerOf(pieces)) ||
+        (wAbove - wBelow <= mMinThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper)))) {
+        mDropLastPlane();
+        out.push_back({below, above, std::move(pieces)});
+        return;
+    }
+    refine(below, middle, std::move(lower), out);
+    refine(middle, above, std::move(upper), out);
+}
+
+// How the pieces of `slabs` (in order of w) join loops: the group of each loop of the first and
+// the last plane (groups numbered in order of first appearance, bottom loops first), and how many
+// groups there are in all (a loop between them may join neither end: a component of its own).
+struct LoopGroups {
+    std::vector<int> ends;
+    std::size_t count = 0;
+    bool operator==(const LoopGroups& other) const { return ends == other.ends && count == other.count; }
+};
+
+LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::vector<PlaneLoops>& planes)
+{
+    std::map<std::pair<int, int>, std::int32_t> node; // (plane, loop)
+    const auto id = [&](int plane, int loop) {
+        return node.emplace(std::make_pair(plane, loop), static_cast<std::int32_t>(node.size())).first->second;
+    };
+    std::vector<int> stack{slabs.front().below};
+    for (const ContourGraph::Slab& slab : slabs) stack.push_back(slab.above);
+    for (int plane : stack)
+        for (std::size_t l = 0; l < planes[plane].loops.size(); ++l) id(plane, static_cast<int>(l));
+    Labels labels(node.size());
+    for (const ContourGraph::Slab& slab : slabs)
+        for (const SlabPiece& p : slab.pieces) {
+            const std::int32_t first = p.below.empty() ? id(slab.above, p.above[0]) : id(slab.below, p.below[0]);
+            for (int l : p.below) labels.join(first, id(slab.below, l));
+            for (int l : p.above) labels.join(first, id(slab.above, l));
+        }
+    LoopGroups groups;
+    std::map<std::int32_t, int> number;
+    for (int plane : {stack.front(), stack.back()})
+        for (std::size_t l = 0; l < planes[plane].loops.size(); ++l) {
+            const std::int32_t root = labels.find(node.at({plane, static_cast<int>(l)}));
+            groups.ends.push_back(number.emplace(root, static_cast<int>(number.size())).first->second);
+        }
+    for (const auto& [key, n] : node) number.emplace(labels.find(n), static_cast<int>(number.size()));
+    groups.count = number.size();
+    return groups;
+}
+
+// Cuts the range (slabs between two voxel planes, in order) by planes every half, quarter, ...
+// of its thickness, keeping the planes it has, until its pieces add up to `target` and join the
+// loops of its two ends as the range did, with no more components (a cut may find a handle, never
+// part a tube the voxel planes' labelling joined, nor join two it kept apart, nor add a piece of a
+// loop too small to keep on a voxel plane), and on while they still do, down to
+// a quarter of minThickness (as a fork's slab is halved: the finest cut places its saddles nearest
+// the surface's); then refines each slab of the finest such cut into `out`. False, with every
+// plane it added dropped again, if no cut matches by an eighth of minThickness.
+bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long long target,
+                            std::vector<ContourGraph::Slab>& out) const
+{
+    std::map<double, int> stack; // plane index by w
+    stack.emplace(mPlanes[range.front().below].w, range.front().below);
+    for (const ContourGraph::Slab& slab : range) stack.emplace(mPlanes[slab.above].w, slab.above);
+    const double wBelow = stack.begin()->first, wAbove = stack.rbegin()->first;
+    const LoopGroups groups = loopGroups(range, mPlanes);
+    std::vector<ContourGraph::Slab> matched;
+    int added = 0, addedWhenMatched = 0;
+    for (double step = 0.5 * (wAbove - wBelow); step >= mMinThickness / 8.0; step *= 0.5) {
+        if (!matched.empty() && step < mMinThickness / 4.0) break;
+        std::map<double, int> finer = stack;
+        for (double w = wBelow + step; w < wAbove; w += 2.0 * step) {
+            if (finer.count(w) != 0) continue;
+            finer.emplace(w, mAddPlane(w));
+            ++added;
+        }
+        std::vector<ContourGraph::Slab> cut;
+        long long euler = 0;
+        for (auto it = finer.begin(); std::next(it) != finer.end(); ++it) {
+            cut.push_back({it->second, std::next(it)->second, connect(it->second, std::next(it)->second)});
+            euler += eulerOf(cut.back().pieces);
+        }
+        if (euler == target && loopGroups(cut, mPlanes) == groups) {
+            matched = std::move(cut);
+            addedWhenMatched = added;
+        } else if (!matched.empty()) {
+            break;
+        }
+        stack = std::move(finer);
+    }
+    // Planes are appended, so the last ones added are this range's.
+    for (; added > addedWhenMatched; --added) mDropLastPlane();
+    for (ContourGraph::Slab& slab : matched) refine(slab.below, slab.above, std::move(slab.pieces), out);
+    return !matched.empty();
+}
+
+std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGraph::Slab> slabs,
+                                                         const EulerProfile& cells, int& matches) const
+{
+    // The ranges between voxel planes (the cells part the isosurface there only), each with how
+    // far its pieces fall short of the cells'.
+    struct Range {
+        std::size_t first, end;
+        long long target, difference;
+    };
+    std::vector<Range> ranges;
+    std::size_t first = 0;
+    for (std::size_t s = 0; s < slabs.size(); ++s) {
+        const double wBelow = mPlanes[slabs[first].below].w, w = mPlanes[slabs[s].above].w;
+        if (w != std::floor(w)) continue;
+        if (wBelow == std::floor(wBelow)) {
+            long long euler = 0;
+            for (std::size_t k = first; k <= s; ++k) euler += eulerOf(slabs[k].pieces);
+            const long long target = cells.between(wBelow, w);
+            ranges.push_back({first, s + 1, target, target - euler});
+        }
+        first = s + 1;
+    }
+    std::vector<ContourGraph::Slab> out;
+    std::size_t copied = 0;
+    for (std::size_t r = 0; r < ranges.size(); ++r) {
+        const Range& range = ranges[r];
+        const bool undone =
+            (r > 0 && ranges[r - 1].end == range.first && ranges[r - 1].difference + range.difference == 0) ||
+            (r + 1 < ranges.size() && ranges[r + 1].first == range.end &&
+             ranges[r + 1].difference + range.difference == 0);
+        if (range.difference == 0 || undone) continue;
+        std::move(slabs.begin() + copied, slabs.begin() + range.first, std::back_inserter(out));
+        copied = range.first;
+        const std::vector<ContourGraph::Slab> old(slabs.begin() + range.first, slabs.begin() + range.end);
+        if (!cutRange(old, range.target, out)) continue;
+        copied = range.end;
+        ++matches;
+    }
+    std::move(slabs.begin() + copied, slabs.end(), std::back_inserter(out));
+    return out;
+}
+
+} // namespace
+
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
-                               const std::function<void()>& dropLastPlane)
+                               const std::function<void()>& dropLastPlane, const std::function<EulerProfile()>& cells)
 {
     ContourGraph graph;
     const int original = static_cast<int>(planes.size());
-    // How thin the slab must get: an unresolved piece (two saddles in one slab, say) is halved
-    // down to an eighth of minThickness, where events at different heights fall apart; a wall
-    // ending with several holes, or a band changing shape fast, to a quarter; a fork or merge
-    // down to minThickness; anything else is left as it is (0).
-    auto thickness = [&](int below, int above, const std::vector<SlabPiece>& pieces) {
-        double target = 0.0;
-        for (const SlabPiece& p : pieces) {
-            if (p.kind == EventKind::Unresolved) return minThickness / 8.0;
-            // A face with several holes is flat: it must lie where the wall ends.
-            if (p.kind == EventKind::Rim && p.below.size() + p.above.size() > 2) target = minThickness / 4.0;
-            if (p.kind == EventKind::Fork || p.kind == EventKind::Merge)
-                target = target == 0.0 ? minThickness : std::min(target, minThickness);
-            // A band's change halves with its slab where the shape changes smoothly; where it does
-            // not (the horns of a crescent running along a pipe's open rim), it takes planes closer
-            // than minThickness.
-            if (p.kind == EventKind::Band &&
-                shapeChange(planes[below], p.below[0], planes[above], p.above[0]) > maxShapeChange)
-                target = target == 0.0 ? minThickness / 4.0 : std::min(target, minThickness / 4.0);
-        }
-        return target;
-    };
-    // Halves a slab while it is thicker than its pieces need; appends the slabs in order of w.
-    const auto refine = [&](const auto& self, int below, int above, std::vector<SlabPiece> pieces) -> void {
-        const double wBelow = planes[below].w, wAbove = planes[above].w;
-        const double needed = thickness(below, above, pieces);
-        if (needed == 0.0 || wAbove - wBelow <= needed) {
-            graph.slabs.push_back({below, above, std::move(pieces)});
-            return;
-        }
-        const int middle = addPlane(0.5 * (wBelow + wAbove));
-        std::vector<SlabPiece> lower = connectThroughSlab(volume, plan, planes[below], planes[middle]);
-        std::vector<SlabPiece> upper = connectThroughSlab(volume, plan, planes[middle], planes[above]);
-        // Below minThickness a slab of bands is halved for its shape alone, and a plane added for
-        // shape must not change what the slab's own planes decided: a neck that pinches for an
-        // instant between voxel planes (a random capsule tree: a fork and a merge a quarter voxel
-        // apart, a handle the isosurface does not have) keeps the slab whole.
-        const auto bandsOnly = [](const std::vector<SlabPiece>& ps) {
-            return std::all_of(ps.begin(), ps.end(), [](const SlabPiece& p) { return p.kind == EventKind::Band; });
-        };
-        // Nor may a plane between voxel planes: the slab's labelling saw the voxel planes around
-        // it, and an interpolated plane can miss what joins them (a contact its image shows no
-        // bridge for). Its pieces' Euler characteristics must add up to the slab's.
-        const auto euler = [](const std::vector<SlabPiece>& ps) {
-            int sum = 0;
-            for (const SlabPiece& p : ps) sum += p.euler();
-            return sum;
-        };
-        const double wMiddle = planes[middle].w;
-        const bool betweenVoxelPlanes = wMiddle != std::floor(wMiddle);
-        if ((betweenVoxelPlanes && euler(lower) + euler(upper) != euler(pieces)) ||
-            (wAbove - wBelow <= minThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper)))) {
-            dropLastPlane();
-            graph.slabs.push_back({below, above, std::move(pieces)});
-            return;
-        }
-        self(self, below, middle, std::move(lower));
-        self(self, middle, above, std::move(upper));
-    };
-    for (int k = 0; k + 1 < original; ++k)
-        refine(refine, k, k + 1, connectThroughSlab(volume, plan, planes[k], planes[k + 1]));
+    const GraphBuilder builder(volume, plan, planes, minThickness, maxShapeChange, addPlane, dropLastPlane);
+    for (int k = 0; k + 1 < original; ++k) builder.refine(k, k + 1, builder.connect(k, k + 1), graph.slabs);
+    const bool junctions = std::any_of(graph.slabs.begin(), graph.slabs.end(), [](const ContourGraph::Slab& slab) {
+        return std::any_of(slab.pieces.begin(), slab.pieces.end(), [](const SlabPiece& p) {
+            return p.kind != EventKind::Band && p.kind != EventKind::Start && p.kind != EventKind::End;
+        });
+    });
+    if (cells && junctions) graph.slabs = builder.matchCells(std::move(graph.slabs), cells(), graph.cellMatches);
     graph.addedPlanes = static_cast<int>(planes.size()) - original;
     graph.order.push_back(0);
     for (const ContourGraph::Slab& slab : graph.slabs) graph.order.push_back(slab.above);

@@ -5,6 +5,7 @@
 #include <pipetile/multires.h>
 #include <pipetile/quality.h>
 #include <pipetile/toroidal.h>
+#include <pipetile/validate.h>
 
 #include "reconstruction_state.h"
 
@@ -413,8 +414,12 @@ void Reconstruction::correspond()
         mLoops.pop_back();
         planes.pop_back();
     };
-    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane);
+    // The cells' Euler characteristic layer by layer: where the slabs' pieces add up to less, a
+    // handle at the voxel scale hides in them (graph.h).
+    const auto cells = [&] { return isosurfaceEulerProfile(mVolume, mPlan.axis); };
+    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane, cells);
     mStats.addedPlanes = mGraph.addedPlanes;
+    mStats.cellMatches = mGraph.cellMatches;
     for (const SliceCounts& counts : dropped) {
         mStats.droppedSmall += counts.small;
         mStats.droppedUnwound += counts.unwound;

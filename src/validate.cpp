@@ -410,11 +410,6 @@ EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis)
     return profile;
 }
 
-long long EulerProfile::total() const
-{
-    return std::accumulate(layers.begin(), layers.end(), 0LL);
-}
-
 long long isosurfaceEuler(const Volume& volume)
 {
     return isosurfaceEulerProfile(volume, 0).total();

@@ -203,7 +203,7 @@ TEST(Cli, WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss)
     // Validate.CountsTheIsosurfacesEulerCharacteristicFromItsCells), and the tool warns exactly when
     // the slabs' sum differs from it. The smoke's handles at the voxel scale are missed (the known
     // gap Graph.KnownGapTheSmokeHasTheIsosurfaceTopology); the aorta's slabs see its topology.
-    // Where they part is Graph.TheCellsLocateTheHandlesTheSlabsMiss's.
+    // Where the counts part and a cut shows the handle, the graph has it (Graph.TheCellsPlaceTheHandlesTheSlabsMiss).
     TempDir dir;
     for (const char* file : {"gaffer_smoke_fog.vdb", "vmtk_aorta_ls.vdb"}) {
         SCOPED_TRACE(file);

@@ -122,6 +122,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"unresolved", stats.unresolvedEvents},
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},
+          {"cell_matches", stats.cellMatches},
           {"euler", stats.eventEuler},
           {"built_euler", stats.caps - stats.saddles},
           {"isosurface_euler", isosurface.total()},

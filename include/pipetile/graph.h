@@ -78,6 +78,19 @@ struct ContourGraph {
     std::vector<int> order;  // plane indices by increasing w
     std::vector<Slab> slabs; // between order[k] and order[k + 1]
     int addedPlanes = 0;     // planes added by bisection
+    int cellMatches = 0;     // ranges between voxel planes cut again to match the cells' Euler characteristic
+};
+
+/// The Euler characteristic of volumeToMesh's isosurface, layer by layer along the slicing axis
+/// (validate.h's isosurfaceEulerProfile counts it from the cells): layers[k] is the share of the
+/// cells whose origin lies at first + k (an edge between two layers counts in the higher). The sum
+/// of layers[0..k] is the Euler characteristic of the isosurface's part below the voxel plane
+/// first + k + 1, up to critical points within a cell of it.
+struct EulerProfile {
+    int first = 0;
+    std::vector<long long> layers;
+    long long total() const;
+    long long between(double wBelow, double wAbove) const; // the layers whose origin is in [wBelow, wAbove)
 };
 
 /// How far a band's two contours differ in shape, each seen from its own central point: the
@@ -95,9 +108,20 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 /// both sides; if it does not, `dropLastPlane()` removes it again (from `planes` too) and the
 /// slab stays whole. Added planes sit at dyadic fractions of their slab, so they never depend on
 /// a level.
+///
+/// Then, where the graph holds a junction (a fork, a merge, a rim or an unresolved piece) and
+/// `cells` is given, its profile (called once) is compared with the pieces between each two voxel
+/// planes of the graph. Where they differ (a pinhole through a one-voxel wall joins two sides that
+/// both planes show joined elsewhere: a handle inside a band's slab), the slabs there are cut by
+/// planes every half, quarter, ... of the range (down to an eighth of `minThickness`) until their
+/// pieces add up to the cells', and then refined as above; if they never do, the planes are
+/// dropped again and the slabs stay as they were. A range whose difference the next one undoes (a
+/// critical point the two place on either side of a voxel plane) is left alone. A graph of bands
+/// and ends alone is not compared: counting the cells would cost a single tube most of its time.
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
-                               const std::function<void()>& dropLastPlane);
+                               const std::function<void()>& dropLastPlane,
+                               const std::function<EulerProfile()>& cells = {});
 
 /// How a junction's single contour is cut into arcs by its partners (decided once, on the
 /// polygons, so every level has the same cuts). Each point of the polygon goes to the partner

@@ -88,6 +88,8 @@ struct ReconstructionStats {
     int tubes = 0;                 // segments: chains of contours joined one to one (bands), each
                                    // closed at either end by a cap, a rim or a junction
     int addedPlanes = 0;           // planes added between slices where an event lies (bisection)
+    int cellMatches = 0;           // ranges between voxel planes cut again where the cells' Euler
+                                   // characteristic showed a handle (graph.h)
     int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
     int saddles = 0;               // of which saddles: n - 1 per 1:n or n:1 junction
     int starts = 0, ends = 0;      // slab pieces where a tube begins (0:1) or ends (1:0)

@@ -129,16 +129,9 @@ TriangleMesh isosurface(const Volume& volume, double adaptivity, double* seconds
 /// voxel scale, which the slabs' labelling does not count).
 long long isosurfaceEuler(const Volume& volume);
 
-/// The same count along the index axis `axis` (0, 1, 2: x, y, z), layer by layer: layers[k] is the
-/// share of the cells whose origin lies at first + k on that axis (an edge between two layers
-/// counts in the higher). The sum of layers[0..k] is the Euler characteristic of the isosurface's
-/// part below the voxel plane first + k + 1, up to critical points within a cell of it: compared
-/// plane by plane with the contour graph's own sums, it says where a missed handle lies.
-struct EulerProfile {
-    int first = 0;
-    std::vector<long long> layers;
-    long long total() const;
-};
+/// The same count along the index axis `axis` (0, 1, 2: x, y, z), layer by layer (graph.h's
+/// EulerProfile): compared plane by plane with the contour graph's own sums, it says where a missed
+/// handle lies, and buildContourGraph adds planes there.
 EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis);
 
 /// Where the contour graph's Euler characteristic parts from the isosurface's: both summed from
