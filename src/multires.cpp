@@ -40,15 +40,21 @@ double secondsSince(Clock::time_point start)
     return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+// Runs `run()`, and the parallel loops inside it, on `threads` threads (0: all cores).
+template <class Run>
+void onThreads(int threads, const Run& run)
+{
+    if (threads == 0) return run(); // the default arena: creating one per call costs more than small loops
+    tbb::task_arena arena(threads);
+    arena.execute(run);
+}
+
 // Runs `body(i)` for i in [0, count) on `threads` threads (0: all cores). Each index writes only
 // its own results, so the output never depends on the thread count.
 template <class Body>
 void forEachIndex(int threads, std::size_t count, const Body& body)
 {
-    auto run = [&] { tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) { body(i); }); };
-    if (threads == 0) return run(); // the default arena: creating one per call costs more than small loops
-    tbb::task_arena arena(threads);
-    arena.execute(run);
+    onThreads(threads, [&] { tbb::parallel_for(std::size_t(0), count, [&](std::size_t i) { body(i); }); });
 }
 
 // Index in [0, count) of the candidate that `accept` takes whose point is nearest `target` (the
@@ -414,9 +420,13 @@ void Reconstruction::correspond()
         mLoops.pop_back();
         planes.pop_back();
     };
-    // The cells' Euler characteristic layer by layer: where the slabs' pieces add up to less, a
+    // The cells' Euler characteristic layer by layer: where the slabs' pieces add up to another count, a
     // handle at the voxel scale hides in them (graph.h).
-    const auto cells = [&] { return isosurfaceEulerProfile(mVolume, mPlan.axis); };
+    const auto cells = [&] {
+        EulerProfile profile; // integer sums: the same for any thread count
+        onThreads(mOptions.threads, [&] { profile = isosurfaceEulerProfile(mVolume, mPlan.axis); });
+        return profile;
+    };
     mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane, cells);
     mStats.addedPlanes = mGraph.addedPlanes;
     mStats.cellMatches = mGraph.cellMatches;

@@ -805,6 +805,23 @@ TEST(Cli, RefusesLevelsThatWouldExhaustMemory)
     EXPECT_TRUE(dir.files().empty());
 }
 
+namespace {
+
+// Writes the sample `name` and benches it once (--repeat 1): its report, or null (and a failure)
+// if either run failed; the bench's standard output in `out`.
+nlohmann::json benchSample(const TempDir& dir, const std::string& name, std::string& out)
+{
+    const test::CliResult sample = runCli("sample " + name + " -o '" + dir.path(name + ".vdb") + "'");
+    EXPECT_EQ(sample.exitCode, 0) << sample.err;
+    const test::CliResult r =
+        runCli("bench '" + dir.path(name + ".vdb") + "' --repeat 1 --report '" + dir.path("b.json") + "'");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    out = r.out;
+    return sample.exitCode == 0 && r.exitCode == 0 ? readJson(dir.path("b.json")) : nlohmann::json();
+}
+
+} // namespace
+
 TEST(Cli, BenchReportsTableOneRefinementAndPeers)
 {
     // The bench on a small input, once per figure: Table 1 has one row per level 1-4 with an object
@@ -812,12 +829,10 @@ TEST(Cli, BenchReportsTableOneRefinementAndPeers)
     // per band, caps shared) and double from level to level on star-shaped circles; refinement
     // has a row per level it refines from; every peer is compared with pipetile.
     TempDir dir;
-    ASSERT_EQ(runCli("sample straight -o '" + dir.path("s.vdb") + "'").exitCode, 0);
-    const test::CliResult r =
-        runCli("bench '" + dir.path("s.vdb") + "' --repeat 1 --report '" + dir.path("b.json") + "'");
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_NE(r.out.find("## Table 1"), std::string::npos);
-    const nlohmann::json j = readJson(dir.path("b.json"));
+    std::string out;
+    const nlohmann::json j = benchSample(dir, "straight", out);
+    ASSERT_FALSE(j.is_null());
+    EXPECT_NE(out.find("## Table 1"), std::string::npos);
     ASSERT_EQ(j["table1"].size(), 4u);
     long long previous = 0;
     for (const auto& row : j["table1"]) {
@@ -855,11 +870,9 @@ TEST(Cli, BenchKeepsTheUniformMeshWhereALevelIsFinerThanIt)
     // asked meshoptimizer for more than its input, and its assertion aborted the bench. There is
     // nothing to remove: the peer is the uniform mesh, triangle for triangle.
     TempDir dir;
-    ASSERT_EQ(runCli("sample oblique -o '" + dir.path("o.vdb") + "'").exitCode, 0);
-    const test::CliResult r =
-        runCli("bench '" + dir.path("o.vdb") + "' --repeat 1 --report '" + dir.path("b.json") + "'");
-    ASSERT_EQ(r.exitCode, 0) << r.err;
-    const nlohmann::json j = readJson(dir.path("b.json"));
+    std::string out;
+    const nlohmann::json j = benchSample(dir, "oblique", out);
+    ASSERT_FALSE(j.is_null());
     std::map<std::string, long long> triangles;
     for (const auto& peer : j["peers"])
         triangles[peer["method"].get<std::string>()] = peer["triangles"].get<long long>();
