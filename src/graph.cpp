@@ -662,10 +662,13 @@ bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long l
             cut.push_back({it->second, std::next(it)->second, connect(it->second, std::next(it)->second)});
             euler += eulerOf(cut.back().pieces);
         }
-        if (euler == target && loopGroups(cut, mPlanes) == groups) {
+        const bool joinsAsBefore = loopGroups(cut, mPlanes) == groups;
+        if (euler == target && joinsAsBefore) {
             matched = std::move(cut);
             addedWhenMatched = added;
-        } else if (!matched.empty()) {
+        } else if (!matched.empty() || !joinsAsBefore) {
+            // Finer planes between the same voxel planes see more of the interpolated field's
+            // contacts, not fewer: a cut that joins loops differently stays wrong (the smoke).
             break;
         }
         stack = std::move(finer);
