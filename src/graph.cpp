@@ -637,7 +637,8 @@ LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::v
 // loop too small to keep on a voxel plane), and on while they still do, down to
 // a quarter of minThickness (as a fork's slab is halved: the finest cut places its saddles nearest
 // the surface's); then refines each slab of the finest such cut into `out`. False, with every
-// plane it added dropped again, if no cut matches by an eighth of minThickness.
+// plane it added dropped again, if no cut matches by an eighth of minThickness, or once a cut
+// joins the loops otherwise (finer ones would not undo it).
 bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long long target,
                             std::vector<ContourGraph::Slab>& out) const
 {
