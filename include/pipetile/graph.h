@@ -116,9 +116,9 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 /// planes every half, quarter, ... of the range (down to an eighth of `minThickness`) until their
 /// pieces add up to the cells' and join the loops at the range's ends as the range did, and then
 /// refined as above; if they never do, the planes are dropped again and the slabs stay as they
-/// were. A range whose difference the next one undoes (a
-/// critical point the two place on either side of a voxel plane) is left alone. A graph of bands
-/// and ends alone is not compared: counting the cells would cost a single tube most of its time.
+/// were. A range whose difference the next one undoes (a critical point the two place on either
+/// side of a voxel plane) is left alone. A graph of bands and ends alone is not compared: counting
+/// the cells would cost a single tube most of its time.
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
                                const std::function<void()>& dropLastPlane,
