@@ -1089,19 +1089,36 @@ RaySet addedRaySet(int baseRays, int level, std::vector<long> fine)
 
 } // namespace
 
+namespace {
+
+// Sector x's ends on the grid of kFoldDepth added levels, where the level's own rays are every
+// 2^kFoldDepth-th index.
+std::pair<long, long> sectorOnGrid(const RaySet& rays, int x)
+{
+    const long step = rays.added ? 1 : 1L << RaySet::kFoldDepth;
+    const long grid = static_cast<long>(rays.baseRays) << (rays.level + RaySet::kFoldDepth);
+    return {rays.gridIndex(x) * step, x + 1 < rays.count() ? rays.gridIndex(x + 1) * step : grid};
+}
+
+} // namespace
+
+bool RaySet::canHalve(int sector, int halvings) const
+{
+    const auto [a, b] = sectorOnGrid(*this, sector);
+    return b - a >= 2L << (kFoldDepth - halvings);
+}
+
 RaySet RaySet::withMidpoints(const std::vector<int>& sectors) const
 {
     const int n = count();
-    // On the finer grid: the level's own rays are every 2^kFoldDepth-th index.
     const long step = added ? 1 : 1L << kFoldDepth;
-    const long grid = static_cast<long>(baseRays) << (level + kFoldDepth);
     std::vector<long> fine;
     fine.reserve(static_cast<std::size_t>(n) + sectors.size());
     for (int x = 0; x < n; ++x) fine.push_back(gridIndex(x) * step);
     bool grew = false;
     for (int x : sectors) {
-        const long a = gridIndex(x) * step, b = x + 1 < n ? gridIndex(x + 1) * step : grid;
-        if (b - a < 2) continue; // halved kFoldDepth times already
+        if (!canHalve(x)) continue;
+        const auto [a, b] = sectorOnGrid(*this, x);
         fine.push_back((a + b) / 2);
         grew = true;
     }

@@ -336,12 +336,19 @@ TEST(Contour, AddedRaysSeeAFoldTheLevelsRaysHide)
     EXPECT_TRUE(hiddenFolds(c1, view, 2.0).empty());
 
     // Once more (33.75°, past the arc's end): the fold stays, and its sector cannot be halved a
-    // third time (RaySet::kFoldDepth).
+    // third time for a fold (RaySet::kFoldHalvings); a straying chord at the top level may halve
+    // it once more (RaySet::kFoldDepth), but not again.
+    EXPECT_TRUE(once.canHalve(1, RaySet::kFoldHalvings));
     const RaySet twice = once.withMidpoints({1});
     ASSERT_EQ(twice.count(), 10);
     const Contour c2 = refineContour(c1, loops[0], twice, image);
     EXPECT_EQ(hiddenFolds(c2, view, 1.0), std::vector<int>{1});
-    EXPECT_EQ(twice.withMidpoints({1}).count(), 10);
+    EXPECT_FALSE(twice.canHalve(1, RaySet::kFoldHalvings));
+    EXPECT_TRUE(twice.canHalve(1));
+    const RaySet thrice = twice.withMidpoints({1});
+    EXPECT_EQ(thrice.count(), 11);
+    EXPECT_FALSE(thrice.canHalve(1));
+    EXPECT_EQ(thrice.withMidpoints({1}).count(), 11);
 
     // The next level keeps the added rays (22.5° is now its own ray 2; 33.75° is added): 17 rays,
     // every crossing of this level among them, bit for bit, refined or cast from scratch.

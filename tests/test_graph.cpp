@@ -685,6 +685,24 @@ TEST(Graph, RandomTreesWhoseBranchesCrossHaveTheIsosurfaceTopology)
     }
 }
 
+TEST(Graph, ADenseTreesArmSeenEndOnIsMeshedWithinAVoxel)
+{
+    // Seed 5 of the generator that made the crossing trees, sliced along x. Its fused blob's
+    // sections have their central point 15 to 39 pixels short of an arm that runs away from it
+    // along the rays: consecutive rays meet the arm's walls far apart, and after two halvings of
+    // those sectors the top level's bands there were 1.17 voxels off. The top level halves a
+    // straying chord's sector a third time (RaySet::kFoldDepth): 0.71.
+    const std::vector<Capsule> tree = {{{56, 56, 10}, {56, 56, 41.7}, 7.0},
+                                       {{56, 56, 41.7}, {54.2, 59.1, 62.6}, 5.25},
+                                       {{54.2, 59.1, 62.6}, {48.5, 54.3, 83.1}, 3.94},
+                                       {{54.2, 59.1, 62.6}, {56.7, 41.7, 75.1}, 3.94},
+                                       {{54.2, 59.1, 62.6}, {54.8, 46.8, 75.6}, 3.94},
+                                       {{56, 56, 41.7}, {46.1, 48.3, 57.5}, 5.25},
+                                       {{46.1, 48.3, 57.5}, {38.1, 47.5, 71.2}, 3.94},
+                                       {{46.1, 48.3, 57.5}, {37.5, 34.6, 68.5}, 3.94}};
+    expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(tree, "dense tree"));
+}
+
 TEST(Graph, TheCellsPlaceTheHandlesTheSlabsMiss)
 {
     // The tunnel above lies within one slab a voxel thick: before the cells were compared, each

@@ -31,9 +31,10 @@ struct BoundaryLoop {
 };
 
 /// Rays a tube adds between its level's own, where a fold hides the boundary from them
-/// (see hiddenFolds). They come from the same dyadic family: a sector is halved at most
-/// RaySet::kFoldDepth times, so every ray lies on the grid of baseRays * 2^(level + kFoldDepth)
-/// evenly spaced angles, and the rays of one level stay rays of the next.
+/// (see hiddenFolds) or, at the top level, where a chord cuts a corner (strayingChords). They
+/// come from the same dyadic family: a sector is halved at most RaySet::kFoldDepth times, so
+/// every ray lies on the grid of baseRays * 2^(level + kFoldDepth) evenly spaced angles, and the
+/// rays of one level stay rays of the next.
 struct AddedRays {
     std::vector<long> fine;             // every ray of the set: its index on that grid, ascending
     std::vector<int> rank;              // per grid index: its ray index in `fine`, or -1
@@ -44,7 +45,8 @@ struct AddedRays {
 /// so every ray of level L is also a ray of level L+1 (DESIGN.md, Rays), plus the rays its tube
 /// added where folds hide detail (`added`; then ray indices count those too).
 struct RaySet {
-    static constexpr int kFoldDepth = 2; // a sector is halved at most twice for a fold
+    static constexpr int kFoldHalvings = 2; // a sector is halved at most twice for a fold
+    static constexpr int kFoldDepth = 3;    // and once more for a straying chord (top level)
 
     RaySet(int baseRays = 8, int level = 0, std::shared_ptr<const AddedRays> added = nullptr)
         : baseRays(baseRays),
@@ -64,8 +66,9 @@ struct RaySet {
     /// Grid index of ray `ray` (an index into this set).
     long gridIndex(int ray) const { return added ? added->fine[ray] : ray; }
 
-    /// These rays plus one in the middle of each listed sector (sector x runs from ray x to ray
-    /// x+1) that can still be halved.
+    /// Whether sector x (from ray x to ray x+1) has been halved fewer than `halvings` times.
+    bool canHalve(int sector, int halvings = kFoldDepth) const;
+    /// These rays plus one in the middle of each listed sector that can still be halved.
     RaySet withMidpoints(const std::vector<int>& sectors) const;
     /// The next level: its own rays and the rays added here.
     RaySet next() const;
