@@ -472,12 +472,12 @@ long long EulerProfile::total() const
 
 long long EulerProfile::between(double wBelow, double wAbove) const
 {
-    long long sum = 0;
-    for (std::size_t k = 0; k < layers.size(); ++k) {
-        const double origin = first + static_cast<double>(k);
-        if (origin >= wBelow && origin < wAbove) sum += layers[k];
-    }
-    return sum;
+    // Layer k's origin is first + k: the layers from ceil(wBelow - first) to before
+    // ceil(wAbove - first), within the profile.
+    const double size = static_cast<double>(layers.size());
+    const auto index = [&](double w) { return static_cast<std::size_t>(std::clamp(std::ceil(w - first), 0.0, size)); };
+    const std::size_t from = index(wBelow), to = index(wAbove);
+    return from < to ? std::accumulate(layers.begin() + from, layers.begin() + to, 0LL) : 0LL;
 }
 
 namespace {

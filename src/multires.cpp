@@ -423,9 +423,8 @@ void Reconstruction::correspond()
     // The cells' Euler characteristic layer by layer: where the slabs' pieces add up to another count, a
     // handle at the voxel scale hides in them (graph.h).
     const auto cells = [&] {
-        EulerProfile profile; // integer sums: the same for any thread count
-        onThreads(mOptions.threads, [&] { profile = isosurfaceEulerProfile(mVolume, mPlan.axis); });
-        return profile;
+        mCells = cellProfile();
+        return *mCells;
     };
     mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane, cells);
     mStats.addedPlanes = mGraph.addedPlanes;
@@ -1344,6 +1343,14 @@ Skeleton Reconstruction::skeleton() const
     }
     skeleton.unresolved = mUnresolved;
     return skeleton;
+}
+
+EulerProfile Reconstruction::cellProfile() const
+{
+    if (mCells) return *mCells;
+    EulerProfile profile; // integer sums: the same for any thread count
+    onThreads(mOptions.threads, [&] { profile = isosurfaceEulerProfile(mVolume, mPlan.axis); });
+    return profile;
 }
 
 int Reconstruction::finestUsefulLevel() const

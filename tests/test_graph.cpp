@@ -658,6 +658,22 @@ TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
     }
 }
 
+TEST(Graph, AProfileSumsTheLayersWhoseOriginLiesInARange)
+{
+    // Layers 3 to 6 (each from its voxel plane to the next) hold 1, 2, 4 and 8: a range takes the
+    // layers whose origin lies in [below, above), so every sum below names its layers.
+    const EulerProfile profile{3, {1, 2, 4, 8}};
+    EXPECT_EQ(profile.between(3.0, 5.0), 1 + 2);
+    EXPECT_EQ(profile.between(3.5, 5.0), 2);
+    EXPECT_EQ(profile.between(4.0, 4.5), 2);
+    EXPECT_EQ(profile.between(6.5, 7.0), 0);
+    EXPECT_EQ(profile.between(5.0, 5.0), 0);
+    EXPECT_EQ(profile.between(-10.0, 3.0), 0);
+    EXPECT_EQ(profile.between(6.0, 100.0), 8);
+    EXPECT_EQ(profile.between(-10.0, 100.0), profile.total());
+    EXPECT_EQ(profile.total(), 15);
+}
+
 TEST(Graph, RandomTreesWhoseBranchesCrossHaveTheIsosurfaceTopology)
 {
     // Once a known gap: in each crossing tree the slabs' labelling misses one tunnel, Euler

@@ -82,7 +82,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
 {
     const ReconstructionStats& stats = reconstruction.stats();
     const MeshOptions& options = reconstruction.options();
-    const EulerProfile isosurface = isosurfaceEulerProfile(volume, reconstruction.plan().axis);
+    const EulerProfile isosurface = reconstruction.cellProfile();
     return {
         {"input", volume.source()},
         {"grid", volume.gridName()},

@@ -172,6 +172,9 @@ public:
     Skeleton skeleton() const;
     /// Index-space w of every plane of the graph.
     const std::vector<double>& planePositions() const { return mPositions; }
+    /// The isosurface's Euler characteristic layer by layer along the slicing axis (validate.h,
+    /// isosurfaceEulerProfile): the one the graph compared its pieces with, else counted now.
+    EulerProfile cellProfile() const;
 
     /// Casts the rays of `level` on the contours it keeps and tiles all tubes, from scratch.
     /// Thread-safe.
@@ -283,6 +286,7 @@ private:
     std::vector<Junction> mJunctions;
     std::vector<Skeleton::Unresolved> mUnresolved;
     ContourGraph mGraph;
+    std::optional<EulerProfile> mCells; // counted where the graph needed it (correspond())
     ReconstructionStats mStats;
 };
 
