@@ -878,13 +878,17 @@ glm::dvec2 Reconstruction::followedCentre(const SliceLoop& before, const SliceLo
     // lies inside a section wide enough for clear pixels to mean something: a tree's blob of
     // fused branches whose centre came within a pixel of its edge jumped to the centroid, 17
     // pixels away in another branch, and its band crossed the blob (5.1 voxels off at the top
-    // level; 1.51 now). Else the centroid if it is a pixel clear (a thin oblique tube's sections,
-    // 3 pixels in radius, whose nearest pixel lags the track: 0.76 voxels off against 0.54); if
-    // not (it lies outside a C, or hugs the inner edge of a crescent at a pipe's open rim, where
-    // a jump to it turned the crescent's tips against each other's rays, 1.13 voxels off), the
-    // clear pixel nearest.
+    // level; 1.51 now). So too when it lies less than a pixel outside, where the section's edge
+    // moved in past it: another blob's centre, two pixels deep by its edge, jumped 7 pixels to
+    // the centroid there, and 23 triangles of the twisted band were more than a voxel off (5 now).
+    // Else the centroid if it is a pixel clear (a thin oblique tube's sections, 3 pixels in
+    // radius, whose nearest pixel lags the track: 0.76 voxels off against 0.54); if not (it lies
+    // outside a C, or hugs the inner edge of a crescent at a pipe's open rim, where a jump to it
+    // turned the crescent's tips against each other's rays, 1.13 voxels off), the clear pixel
+    // nearest.
     const bool wide = radius >= 4.0;
-    if (!centroidClear || (wide && liesInside(loop.loop, candidate))) return clearPixelNear(loop.loop, candidate);
+    const bool near = liesInside(loop.loop, candidate) || boundaryClearance(loop.loop, candidate) < 1.0;
+    if (!centroidClear || (wide && near)) return clearPixelNear(loop.loop, candidate);
     return loop.loop.centroid;
 }
 
