@@ -1087,10 +1087,6 @@ RaySet addedRaySet(int baseRays, int level, std::vector<long> fine)
     return RaySet{baseRays, level, std::move(added)};
 }
 
-} // namespace
-
-namespace {
-
 // Sector x's ends on the grid of kFoldDepth added levels, where the level's own rays are every
 // 2^kFoldDepth-th index.
 std::pair<long, long> sectorOnGrid(const RaySet& rays, int x)
