@@ -1442,7 +1442,7 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
     // The top level, which must stay within a voxel, halves sectors whose edges cut corners too,
     // once more than folds: rays from a dense tree's centre meet an arm seen end-on, 15 to 39
     // pixels away, far apart along its walls, and its bands there were 1.20 voxels off after two
-    // halvings (0.66 after three, for 0.55% more triangles over 12 dense trees). A third halving
+    // halvings (0.68 after three, for 0.55% more triangles over 12 dense trees). A third halving
     // for folds too put new rays through folds that the next section lacks: 1.93 voxels where
     // another tree was 0.89.
     constexpr double kFoldTolerance = 0.5;
