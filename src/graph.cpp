@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <tuple>
 
 namespace pipetile {
@@ -36,17 +37,22 @@ PixelBox boxOf(const BoundaryLoop& loop)
     return box;
 }
 
-// The inside and outside pixels on either side of the loop's first crack (the walk keeps the
-// inside on its left, for holes too).
-std::pair<glm::ivec2, glm::ivec2> pixelsBeside(const BoundaryLoop& loop)
+// The inside and outside pixels on either side of the crack from corner c0 to corner c1 (the
+// walk keeps the inside on its left, for holes too).
+std::pair<glm::ivec2, glm::ivec2> crackPixels(const glm::ivec2& c0, const glm::ivec2& c1)
 {
-    const glm::ivec2 c0 = loop.corners[0], c1 = loop.corners[1 % loop.corners.size()];
     const glm::ivec2 d = c1 - c0;
     const glm::ivec2 left(-d.y, d.x);
     // Crack midpoint in pixel coordinates is (c0 + c1) / 2 - 1/2; the pixels lie half a pixel to
     // either side. Doubled to stay in integers: 2p = c0 + c1 - 1 +- left.
     const glm::ivec2 twice = c0 + c1 - 1;
     return {(twice + left) / 2, (twice - left) / 2};
+}
+
+// The inside and outside pixels on either side of the loop's first crack.
+std::pair<glm::ivec2, glm::ivec2> pixelsBeside(const BoundaryLoop& loop)
+{
+    return crackPixels(loop.corners[0], loop.corners[1 % loop.corners.size()]);
 }
 
 // Union-find over the slab's voxels.
@@ -223,6 +229,12 @@ struct SlabLayers {
         }
     }
     int depth() const { return static_cast<int>(w.size()); }
+    // Whether layers l and l + 1 are two voxel planes, one voxel apart: contacts along a voxel
+    // edge between them are joined as volumeToMesh decides (slicer.h, contactJoins).
+    bool acrossVoxelPlanes(int l) const
+    {
+        return l + 1 < depth() && w[l] == std::floor(w[l]) && w[l + 1] == w[l] + 1.0;
+    }
 };
 
 // The slab's voxels in a pixel box labelled by connected region: inside voxels 8-connected in a
@@ -232,10 +244,17 @@ struct SlabLabels {
     glm::ivec2 lo{0};
     int width = 0, height = 0, depth = 0;
     Labels labels{0};
+    std::vector<std::uint8_t> inside; // per voxel
     std::int32_t id(int layer, const glm::ivec2& pixel) const
     {
         return static_cast<std::int32_t>((static_cast<std::size_t>(layer) * height + (pixel.y - lo.y)) * width +
                                          (pixel.x - lo.x));
+    }
+    // False outside the box.
+    bool insideAt(int layer, const glm::ivec2& pixel) const
+    {
+        const glm::ivec2 r = pixel - lo;
+        return r.x >= 0 && r.y >= 0 && r.x < width && r.y < height && inside[id(layer, pixel)];
     }
 };
 
@@ -259,7 +278,7 @@ SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const Pixe
     const std::vector<SlicePlane>& planes = layers.planes;
     SlabLabels slab;
     slab.depth = layers.depth();
-    std::vector<std::uint8_t> inside;
+    std::vector<std::uint8_t>& inside = slab.inside;
     for (bool touches = true; touches;) {
         const PixelBox pixels = widened(box, margin, plan);
         slab.lo = pixels.min;
@@ -284,13 +303,7 @@ SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const Pixe
     // Voxels one plane apart that touch along a voxel edge only (a saddle on the face between
     // them) are joined or not as volumeToMesh decides, between two voxel planes; a layer between
     // voxel planes shows such a contact in its image as a bridge (slicer.h).
-    auto acrossVoxelPlanes = [&](int l) {
-        return l + 1 < slab.depth && layers.w[l] == std::floor(layers.w[l]) && layers.w[l + 1] == layers.w[l] + 1.0;
-    };
-    auto insideAt = [&](int l, const glm::ivec2& q) {
-        const glm::ivec2 r = q - slab.lo;
-        return r.x >= 0 && r.y >= 0 && r.x < slab.width && r.y < slab.height && inside[slab.id(l, q)];
-    };
+    auto insideAt = [&](int l, const glm::ivec2& q) { return slab.insideAt(l, q); };
     auto linkAcrossSaddles = [&](int l, const glm::ivec2& p, bool in) {
         auto layerPair = [&](int plane, const glm::ivec2& q) { return insideAt(l + plane, q); };
         for (const glm::ivec2 step : {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
@@ -330,7 +343,7 @@ SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const Pixe
                 if (y + 1 < slab.height && x + 1 < slab.width) linkDiagonal({1, 1});
                 if (y + 1 < slab.height && x > 0) linkDiagonal({-1, 1});
                 if (l + 1 < slab.depth) link(l + 1, {0, 0});
-                if (acrossVoxelPlanes(l)) linkAcrossSaddles(l, pixel, in);
+                if (layers.acrossVoxelPlanes(l)) linkAcrossSaddles(l, pixel, in);
                 if (!in && (x == 0 || y == 0 || x + 1 == slab.width || y + 1 == slab.height))
                     slab.labels.join(p, exterior);
             }
@@ -449,6 +462,253 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
     }
     for (SlabPiece& piece : pieces) piece.kind = classify(piece, below, above);
     return pieces;
+}
+
+namespace {
+
+// A cube of the slab's cells: corner c is pixel offset (c & 1, (c >> 1) & 1) on layer offset c >> 2.
+// Its faces, corners counterclockwise seen from outside: -w, +w, -u, +u, -v, +v.
+constexpr int kCubeFaces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}};
+
+glm::ivec2 pixelOffset(int corner)
+{
+    return {corner & 1, (corner >> 1) & 1};
+}
+
+// Marching cubes over the slab's labelled box for one piece (patchPiece).
+class PatchBuilder {
+public:
+    PatchBuilder(const SlabLayers& layers, SlabLabels& slab, int axis, const PlaneLoops* const planes[2],
+                 const SlabPiece& piece, std::int32_t in, std::int32_t out)
+        : mLayers(layers),
+          mSlab(slab),
+          mAxis(axis),
+          mIn(in),
+          mOut(out)
+    {
+        for (int side = 0; side < 2; ++side)
+            for (int l : side == 0 ? piece.below : piece.above) {
+                const BoundaryLoop& loop = *planes[side]->loops[l];
+                const std::size_t n = loop.corners.size();
+                for (std::size_t k = 0; k < n; ++k) {
+                    const auto [inPixel, outPixel] = crackPixels(loop.corners[k], loop.corners[(k + 1) % n]);
+                    mCracks[{side, inPixel.x, inPixel.y, outPixel.x, outPixel.y}] = {l, static_cast<int>(k)};
+                }
+                mCrackCount += n;
+            }
+    }
+
+    // False where a cell's surface cannot be told to one piece (SlabPatch).
+    bool build()
+    {
+        for (int l = 0; l + 1 < mSlab.depth; ++l)
+            for (int y = 0; y + 1 < mSlab.height; ++y)
+                for (int x = 0; x + 1 < mSlab.width; ++x)
+                    if (!cube(l, mSlab.lo + glm::ivec2(x, y))) return false;
+        return closes();
+    }
+
+    SlabPatch patch;
+
+private:
+    // The cube at layer l whose corner 0 is `pixel`: its cycles of isosurface points, each closed
+    // by the segments on its faces, and those that separate the piece's regions fanned into triangles.
+    bool cube(int l, const glm::ivec2& pixel)
+    {
+        bool in[8];
+        int count = 0;
+        for (int c = 0; c < 8; ++c) count += (in[c] = mSlab.insideAt(l + (c >> 2), pixel + pixelOffset(c))) ? 1 : 0;
+        if (count == 0 || count == 8) return true;
+        // next[a * 8 + b]: the edge (as a corner pair) that follows edge (a, b) along its cycle.
+        int next[64];
+        std::fill(std::begin(next), std::end(next), -1);
+        for (int f = 0; f < 6; ++f) faceSegments(l, pixel, f, in, next);
+        bool done[64] = {};
+        for (int start = 0; start < 64; ++start) {
+            if (next[start] < 0 || done[start]) continue;
+            std::vector<int> cycle;
+            int e = start;
+            for (; e >= 0 && !done[e]; e = next[e]) {
+                done[e] = true;
+                cycle.push_back(e);
+            }
+            if (e != start) return false; // faces that do not chain (never, with the faces turned alike)
+            if (!addCycle(l, pixel, in, cycle)) return false;
+        }
+        return true;
+    }
+
+    // Face f's segments, from the edge where its counterclockwise walk leaves the inside to the one
+    // where it enters it again, so each cycle runs around the inside corners it cuts off. A saddle
+    // face's two segments cut off the pair its labelling keeps apart.
+    void faceSegments(int l, const glm::ivec2& pixel, int f, const bool in[8], int next[64]) const
+    {
+        const int* q = kCubeFaces[f];
+        auto undirected = [&](int i) {
+            return std::min(q[i & 3], q[(i + 1) & 3]) * 8 + std::max(q[i & 3], q[(i + 1) & 3]);
+        };
+        auto link = [&](int from, int to) { next[undirected(from)] = undirected(to); };
+        int crossings = 0;
+        for (int i = 0; i < 4; ++i) crossings += in[q[i]] != in[q[(i + 1) & 3]] ? 1 : 0;
+        if (crossings == 2) {
+            int from = -1, to = -1;
+            for (int i = 0; i < 4; ++i) {
+                if (in[q[i]] && !in[q[(i + 1) & 3]]) from = i;
+                if (!in[q[i]] && in[q[(i + 1) & 3]]) to = i;
+            }
+            link(from, to);
+            return;
+        }
+        if (crossings != 4) return;
+        const bool joined = insideJoined(l, pixel, f, in);
+        for (int k = 0; k < 4; ++k) {
+            if (in[q[k]] == joined) continue;
+            // Cut off corner k: the walk leaves the inside on edge k - 1 and enters it on edge k
+            // (an outside corner), or leaves it on edge k and enters on edge k - 1 (an inside one).
+            if (joined)
+                link(k + 3, k);
+            else
+                link(k, k + 3);
+        }
+    }
+
+    // A saddle face: whether its inside pair is one region, as the slab's labelling decides.
+    bool insideJoined(int l, const glm::ivec2& pixel, int f, const bool in[8]) const
+    {
+        if (f < 2) return mLayers.planes[l + f].saddleJoins(pixel + 1);
+        if (!mLayers.acrossVoxelPlanes(l)) return false;
+        // The lower layer's inside corner a and the upper layer's b, diagonal on the face.
+        const int* q = kCubeFaces[f];
+        glm::ivec2 a(0), b(0);
+        for (int i = 0; i < 4; ++i)
+            if (in[q[i]]) (q[i] < 4 ? a : b) = pixel + pixelOffset(q[i]);
+        const auto inside = [&](int plane, const glm::ivec2& p) { return mSlab.insideAt(l + plane, p); };
+        return contactJoins(mLayers.levelSet, inside, a, b);
+    }
+
+    bool addCycle(int l, const glm::ivec2& pixel, const bool in[8], const std::vector<int>& cycle)
+    {
+        // The regions the cycle separates: the piece's, another piece's, or (a saddle between
+        // layers that no rule decides) two outside regions, which fails the piece's patch.
+        std::int32_t inLabel = -1, outLabel = -1;
+        bool mixed = false, ours = false;
+        for (int e : cycle) {
+            const int a = e / 8, b = e % 8, inner = in[a] ? a : b, outer = in[a] ? b : a;
+            const std::int32_t i = mSlab.labels.find(mSlab.id(l + (inner >> 2), pixel + pixelOffset(inner)));
+            const std::int32_t o = mSlab.labels.find(mSlab.id(l + (outer >> 2), pixel + pixelOffset(outer)));
+            mixed = mixed || (inLabel >= 0 && (i != inLabel || o != outLabel));
+            ours = ours || i == mIn;
+            inLabel = i;
+            outLabel = o;
+        }
+        if (mixed) return !ours;
+        if (inLabel != mIn || outLabel != mOut) return true;
+        std::vector<std::uint32_t> ids;
+        for (int e : cycle) {
+            const std::optional<std::uint32_t> id = vertexOn(l, pixel, e / 8, e % 8, in);
+            if (!id) return false;
+            ids.push_back(*id);
+        }
+        // The cycle runs around the inside: its fan faces it, so the triangles turn to face out.
+        for (std::size_t k = 1; k + 1 < ids.size(); ++k) patch.triangles.push_back({ids[0], ids[k + 1], ids[k]});
+        return true;
+    }
+
+    // The patch's vertex on the cube edge between corners a and b (a < b): a loop's point where
+    // the edge lies in one of the slab's two planes, else where the field along it is zero.
+    std::optional<std::uint32_t> vertexOn(int l, const glm::ivec2& pixel, int a, int b, const bool in[8])
+    {
+        const int inner = in[a] ? a : b, outer = in[a] ? b : a;
+        const int innerLayer = l + (inner >> 2), outerLayer = l + (outer >> 2);
+        const glm::ivec2 innerPixel = pixel + pixelOffset(inner), outerPixel = pixel + pixelOffset(outer);
+        const int axis = (b - a) == 4 ? 2 : (b - a) == 2 ? 1 : 0;
+        const std::int64_t key = std::int64_t(mSlab.id(l + (a >> 2), pixel + pixelOffset(a))) * 3 + axis;
+        const auto [at, added] = mVertices.insert({key, static_cast<std::uint32_t>(patch.vertices.size())});
+        if (!added) return at->second;
+        SlabPatch::Vertex vertex;
+        if (axis < 2 && (innerLayer == 0 || innerLayer == mSlab.depth - 1)) {
+            const int side = innerLayer == 0 ? 0 : 1;
+            const auto crack = mCracks.find({side, innerPixel.x, innerPixel.y, outerPixel.x, outerPixel.y});
+            if (crack == mCracks.end()) return std::nullopt; // a loop no piece's
+            vertex.plane = side;
+            vertex.loop = crack->second.first;
+            vertex.point = crack->second.second;
+        } else {
+            // As the walk places its points (contour.cpp): linear between the two samples.
+            const double fin = mLayers.planes[innerLayer].value(innerPixel.x, innerPixel.y);
+            const double fout = mLayers.planes[outerLayer].value(outerPixel.x, outerPixel.y);
+            const double s = fin < fout ? std::clamp(fin / (fin - fout), 0.0, 1.0) : 0.5;
+            const glm::dvec2 uv = glm::dvec2(innerPixel) + s * glm::dvec2(outerPixel - innerPixel);
+            const double w = mLayers.w[innerLayer] + s * (mLayers.w[outerLayer] - mLayers.w[innerLayer]);
+            vertex.index = planeToIndex(mAxis, uv, w);
+        }
+        patch.vertices.push_back(vertex);
+        return at->second;
+    }
+
+    // Every edge in two triangles, once each way, but the loops' cracks, each in one: a surface
+    // with the piece's loops, and nothing else, for boundary. Then its Euler characteristic.
+    bool closes()
+    {
+        std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges; // directed
+        for (const auto& t : patch.triangles)
+            for (int k = 0; k < 3; ++k)
+                if (++edges[{t[k], t[(k + 1) % 3]}] > 1) return false;
+        std::size_t open = 0, undirected = 0;
+        for (const auto& [edge, uses] : edges) {
+            const bool twin = edges.count({edge.second, edge.first}) > 0;
+            undirected += twin && edge.first > edge.second ? 0 : 1;
+            if (twin) continue;
+            const SlabPatch::Vertex &u = patch.vertices[edge.first], &v = patch.vertices[edge.second];
+            if (u.plane < 0 || u.plane != v.plane || u.loop != v.loop) return false;
+            ++open;
+        }
+        if (open != mCrackCount) return false;
+        patch.euler = static_cast<int>(patch.vertices.size()) - static_cast<int>(undirected) +
+                      static_cast<int>(patch.triangles.size());
+        return true;
+    }
+
+    const SlabLayers& mLayers;
+    SlabLabels& mSlab;
+    int mAxis;
+    std::int32_t mIn, mOut;
+    // Per crack of the piece's loops, by plane (0 below, 1 above), inside pixel and outside pixel:
+    // (loop, point).
+    std::map<std::tuple<int, int, int, int, int>, std::pair<int, int>> mCracks;
+    std::size_t mCrackCount = 0;
+    std::map<std::int64_t, std::uint32_t> mVertices; // per cube edge crossed
+};
+
+} // namespace
+
+std::optional<SlabPatch> patchPiece(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                    const PlaneLoops& above, const SlabPiece& piece)
+{
+    const PlaneLoops* const planes[2] = {&below, &above};
+    std::optional<PixelBox> box;
+    for (int side = 0; side < 2; ++side)
+        for (int l : side == 0 ? piece.below : piece.above) {
+            const PixelBox b = boxOf(*planes[side]->loops[l]);
+            box = box ? PixelBox{glm::min(box->min, b.min), glm::max(box->max, b.max)} : b;
+        }
+    if (!box) return std::nullopt;
+    const SlabLayers layers(volume, plan, below.w, above.w);
+    std::int64_t margin = 2 + static_cast<std::int64_t>(std::ceil(2.0 * (above.w - below.w))); // as clusterLoops
+    SlabLabels slab = labelSlab(layers, plan, *box, margin);
+    // The regions the piece separates, which every one of its loops must separate here too.
+    std::optional<std::pair<std::int32_t, std::int32_t>> key;
+    for (int side = 0; side < 2; ++side)
+        for (int l : side == 0 ? piece.below : piece.above) {
+            const auto [in, out] = pixelsBeside(*planes[side]->loops[l]);
+            const int layer = side == 0 ? 0 : slab.depth - 1;
+            const std::pair regions{slab.labels.find(slab.id(layer, in)), slab.labels.find(slab.id(layer, out))};
+            if (key && *key != regions) return std::nullopt;
+            key = regions;
+        }
+    PatchBuilder builder(layers, slab, plan.axis, planes, piece, key->first, key->second);
+    if (!builder.build()) return std::nullopt;
+    return std::move(builder.patch);
 }
 
 double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b)

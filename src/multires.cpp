@@ -307,7 +307,7 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     chooseSlices();
     for (const Tube& tube : mTubes)
         for (const TubeEnd* end : {&tube.bottom, &tube.top}) {
-            if (end->annulus >= 0 || end->junction >= 0) continue;
+            if (end->annulus >= 0 || end->joined()) continue;
             ++mStats.caps;
             mStats.flatCaps += end->hasApex ? 0 : 1;
             mStats.clippedCaps += end->fan ? 0 : 1;
@@ -457,8 +457,8 @@ void Reconstruction::resolveEvents()
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
     mStats.eventEuler += static_cast<long long>(mLoops[first].size());
-    for (const ContourGraph::Slab& slab : mGraph.slabs) {
-        for (const SlabPiece& piece : slab.pieces) {
+    for (ContourGraph::Slab& slab : mGraph.slabs) {
+        for (SlabPiece& piece : slab.pieces) { // a patch records the handles it finds
             mStats.eventEuler += piece.euler();
             if (piece.kind == EventKind::Band) {
                 const int t = tubeOf[slab.below][piece.below[0]];
@@ -496,6 +496,17 @@ void Reconstruction::resolveEvents()
                 // c - 2 saddles, so that caps - saddles stays the mesh's Euler characteristic.
                 mStats.saddles += static_cast<int>(piece.below.size() + piece.above.size()) - 2;
                 mJunctions.push_back(std::move(junction));
+                continue;
+            }
+            if ((joins || piece.kind == EventKind::Unresolved) && makePatch(slab, piece)) {
+                const int id = static_cast<int>(mPatches.size()) - 1;
+                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.patch = id;
+                for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.patch = id;
+                ++mStats.patches;
+                mStats.patchEuler += mPatches.back().surface.euler;
+                const int before = piece.euler();
+                piece.handles = (before - mPatches.back().surface.euler) / 2;
+                mStats.eventEuler += piece.euler() - before;
                 continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
@@ -570,6 +581,22 @@ bool Reconstruction::makeWaist(const ContourGraph::Slab& slab, const SlabPiece& 
     mPositions.pop_back();
     mLoops.pop_back();
     return false;
+}
+
+bool Reconstruction::makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece)
+{
+    // Unlike a waist, the cells give holes and handles too; but their triangles are as fine as
+    // the voxels at every level, so the constructions from contours go first.
+    PlaneLoops planes[2];
+    for (int side = 0; side < 2; ++side) {
+        const int s = side == 0 ? slab.below : slab.above;
+        planes[side].w = mPositions[s];
+        for (const SliceLoop& l : mLoops[s]) planes[side].loops.push_back(&l.loop);
+    }
+    std::optional<SlabPatch> surface = patchPiece(mVolume, mPlan, planes[0], planes[1], piece);
+    if (!surface) return false;
+    mPatches.push_back({slab.below, slab.above, std::move(*surface)});
+    return true;
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const
@@ -1069,7 +1096,7 @@ void Reconstruction::closeEnds()
             // halfway instead, under a flat cap.
             const TubeEnd& end = top ? tube.top : tube.bottom;
             if (end.goesOn) meetHalfway(tube, top);
-            if (end.junction >= 0 || end.goesOn) continue;
+            if (end.joined() || end.goesOn) continue;
             for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
             }
         }
@@ -1080,7 +1107,7 @@ void Reconstruction::closeEnds()
         for (const bool top : {false, true}) {
             const TubeEnd& end = top ? tube.top : tube.bottom;
             const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
-            if (tube.hole || end.hasApex || end.junction >= 0 || end.goesOn ||
+            if (tube.hole || end.hasApex || end.joined() || end.goesOn ||
                 std::any_of(mTubes.begin(), mTubes.end(), rim))
                 continue;
             for (int added = 0; added < kMostEndContours && addEndContour(tube, top, true); ++added) {
@@ -1104,7 +1131,7 @@ void Reconstruction::closeEnds()
     // A lone contour closed flat on both sides would get the same triangles twice: it encloses
     // nothing, so it is dropped (and counted) rather than meshed as a flat pillow.
     const auto pillow = [](const Tube& t) {
-        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && t.bottom.junction < 0 && t.top.junction < 0;
+        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined();
     };
     mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
     mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
@@ -1122,7 +1149,7 @@ bool Reconstruction::formRim(const Tube& outer, const Tube& hole, bool top) cons
     const auto [hs, hl] = top ? hole.members.back() : hole.members.front();
     // A hole whose outside ends just past it (a cavity's lid) is no pipe's opening.
     return !outer.hole && hole.hole && !outerEnd.hasApex && !holeEnd.hasApex && outerEnd.annulus < 0 &&
-           outerEnd.junction < 0 && holeEnd.junction < 0 && os == hs &&
+           !outerEnd.joined() && !holeEnd.joined() && os == hs &&
            encloses(mLoops[os][ol].loop, mLoops[hs][hl].view.center);
 }
 
@@ -1134,7 +1161,7 @@ void Reconstruction::joinRims()
     for (int h = 0; h < static_cast<int>(mTubes.size()); ++h) {
         if (!mTubes[h].hole) continue;
         for (const bool top : {false, true}) {
-            if ((top ? mTubes[h].top : mTubes[h].bottom).junction >= 0) continue;
+            if ((top ? mTubes[h].top : mTubes[h].bottom).joined()) continue;
             const std::pair<int, int> holeEnd = top ? mTubes[h].members.back() : mTubes[h].members.front();
             const int hs = holeEnd.first, hl = holeEnd.second; // named, not bound: lambdas below use them
             const glm::dvec2 holeCenter = mLoops[hs][hl].view.center;
@@ -1323,7 +1350,11 @@ Skeleton Reconstruction::skeleton() const
         segment.wLast = mPositions[tube.members.back().first];
         segment.contours = static_cast<int>(tube.members.size());
         auto name = [](const TubeEnd& end) {
-            return end.junction >= 0 ? "junction" : end.annulus >= 0 ? "rim" : end.hasApex ? "cap" : "flat cap";
+            return end.junction >= 0  ? "junction"
+                   : end.patch >= 0   ? "patch"
+                   : end.annulus >= 0 ? "rim"
+                   : end.hasApex      ? "cap"
+                                      : "flat cap";
         };
         segment.bottom = name(tube.bottom);
         segment.top = name(tube.top);
@@ -1344,6 +1375,13 @@ Skeleton Reconstruction::skeleton() const
         j.single = segmentOf[junction.single.first][junction.single.second];
         for (const auto& [s, l] : junction.many) j.partners.push_back(segmentOf[s][l]);
         skeleton.junctions.push_back(j);
+    }
+    for (const Patch& patch : mPatches) {
+        int contours = 0;
+        for (const Tube& tube : mTubes)
+            for (const TubeEnd* end : {&tube.bottom, &tube.top})
+                contours += end->patch == static_cast<int>(&patch - mPatches.data()) ? 1 : 0;
+        skeleton.patches.push_back({mPositions[patch.below], mPositions[patch.above], contours, patch.surface.euler});
     }
     skeleton.unresolved = mUnresolved;
     return skeleton;
@@ -1565,6 +1603,7 @@ private:
                                             const ChordVertices& chords) const;
     void tilePart(std::size_t j, std::size_t k, const std::vector<std::uint32_t>& boundary);
     void tileSlit(std::size_t j, const Ring& ring, const Ring& innerRing, const ChordVertices& chords);
+    void tilePatch(std::size_t p);
 
     // The reconstruction's state, under its own names.
     const Volume& mVolume;
@@ -1574,6 +1613,7 @@ private:
     const std::vector<std::vector<SliceLoop>>& mLoops;
     const std::vector<Tube>& mTubes;
     const std::vector<Junction>& mJunctions;
+    const std::vector<Patch>& mPatches;
 
     const Contours& contours;
     const RaySet rays;
@@ -1589,6 +1629,7 @@ private:
     std::vector<ChordVertices> onChord;                // per junction
     std::vector<std::uint32_t> firstNodeOf;            // per junction
     std::vector<std::vector<std::uint32_t>> partFirst; // per junction, per partner
+    std::vector<std::uint32_t> patchFirst;             // per patch
     std::vector<std::unique_ptr<ContourTree>> trees;   // per member, with the contour tree tiler
     std::vector<ContourString> strings;                // per member, likewise
     std::vector<std::size_t> bandBytes;                // per member
@@ -1603,6 +1644,7 @@ Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& cont
       mLoops(r.mLoops),
       mTubes(r.mTubes),
       mJunctions(r.mJunctions),
+      mPatches(r.mPatches),
       contours(contours),
       rays{r.mOptions.baseRays, level},
       mirrored(r.mVolume.mirrored()),
@@ -1611,7 +1653,8 @@ Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& cont
       parts(r.mJunctions.size()),
       onChord(r.mJunctions.size()),
       firstNodeOf(r.mJunctions.size()),
-      partFirst(r.mJunctions.size())
+      partFirst(r.mJunctions.size()),
+      patchFirst(r.mPatches.size())
 {
     result.level = level;
     result.rays = rays.count();
@@ -1692,6 +1735,23 @@ void Reconstruction::Assembly::numberJunctionVertices()
             vertexCount += static_cast<std::uint32_t>(part.crossings.size());
         }
     }
+    // A patch's points on a loop lie on its polygon's points (param 0 of their segment; a hole's
+    // polygon runs reversed).
+    for (std::size_t p = 0; p < mPatches.size(); ++p) {
+        patchFirst[p] = vertexCount;
+        const std::vector<SlabPatch::Vertex>& vertices = mPatches[p].surface.vertices;
+        for (std::size_t v = 0; v < vertices.size(); ++v) {
+            if (vertices[v].plane < 0) continue;
+            const std::pair<int, int> loop{vertices[v].plane == 0 ? mPatches[p].below : mPatches[p].above,
+                                           vertices[v].loop};
+            const BoundaryLoop& boundary = mLoops[loop.first][loop.second].loop;
+            const int n = static_cast<int>(boundary.points.size());
+            const int segment = boundary.hole() ? n - 1 - vertices[v].point : vertices[v].point;
+            extras[memberAt(loop)].push_back(
+                {segment, 0.0, vertexCount + static_cast<std::uint32_t>(v), boundary.points[vertices[v].point]});
+        }
+        vertexCount += static_cast<std::uint32_t>(vertices.size());
+    }
 }
 
 std::size_t Reconstruction::Assembly::memberAt(const std::pair<int, int>& loop) const
@@ -1747,6 +1807,14 @@ void Reconstruction::Assembly::placeVertices()
             }
         }
     }
+    for (std::size_t p = 0; p < mPatches.size(); ++p)
+        for (std::size_t v = 0; v < mPatches[p].surface.vertices.size(); ++v) {
+            const SlabPatch::Vertex& vertex = mPatches[p].surface.vertices[v];
+            const int plane = vertex.plane == 0 ? mPatches[p].below : mPatches[p].above;
+            mesh.vertices[patchFirst[p] + v] =
+                vertex.plane < 0 ? mVolume.indexToWorld(vertex.index)
+                                 : toWorld(mLoops[plane][vertex.loop].loop.points[vertex.point], plane);
+        }
 }
 
 // A contour's ring: its crossings in walk order with its extras merged in by their place on
@@ -1919,7 +1987,7 @@ void Reconstruction::Assembly::emitCap(std::size_t self, bool top)
 {
     const Member& m = members[self];
     const TubeEnd& end = top ? m.tube->top : m.tube->bottom;
-    if (end.junction >= 0 || (m.tube->hole && end.annulus >= 0)) return;
+    if (end.joined() || (m.tube->hole && end.annulus >= 0)) return;
     if (end.annulus >= 0) {
         const std::uint32_t count = static_cast<std::uint32_t>(m.contour->crossings.size());
         std::size_t hole = tubeFirst[end.annulus];
@@ -1982,6 +2050,43 @@ void Reconstruction::Assembly::tileJunction(std::size_t j)
     for (auto& [chord, along] : chords) std::sort(along.begin(), along.end());
     for (std::size_t k = 0; k < junction.many.size(); ++k) tilePart(j, k, partBoundary(j, k, ring, innerRing, chords));
     if (junction.keyhole.open()) tileSlit(j, ring, innerRing, chords);
+}
+
+// A patch's triangles, as the cells gave them; each edge between two of its points on a loop
+// fans through the ring's vertices between them (the loop's crossings and other extras).
+void Reconstruction::Assembly::tilePatch(std::size_t p)
+{
+    const Patch& patch = mPatches[p];
+    const std::uint32_t first = patchFirst[p];
+    std::vector<Triangle> triangles;
+    triangles.reserve(patch.surface.triangles.size());
+    for (const auto& t : patch.surface.triangles) {
+        triangles.push_back({first + t[0], first + t[1], first + t[2]});
+        if (mirrored) std::swap(triangles.back()[1], triangles.back()[2]);
+    }
+    // Per loop, its patch points in ring order: consecutive ones are an edge of the patch.
+    std::map<std::pair<int, int>, std::vector<std::uint32_t>> pointsOn;
+    for (std::size_t v = 0; v < patch.surface.vertices.size(); ++v) {
+        const SlabPatch::Vertex& vertex = patch.surface.vertices[v];
+        if (vertex.plane >= 0)
+            pointsOn[{vertex.plane == 0 ? patch.below : patch.above, vertex.loop}].push_back(
+                first + static_cast<std::uint32_t>(v));
+    }
+    for (const auto& [loop, ids] : pointsOn) {
+        const Ring ring = ringOf(memberAt(loop));
+        std::vector<std::size_t> at; // ring positions of the patch's points
+        for (std::size_t r = 0; r < ring.ids.size(); ++r)
+            if (ring.ids[r] >= first && ring.ids[r] < first + patch.surface.vertices.size()) at.push_back(r);
+        PIPETILE_ASSERT(at.size() == ids.size(), "a patch's point is missing from its loop's ring");
+        for (std::size_t k = 0; k < at.size(); ++k) {
+            const std::size_t from = at[k], to = at[(k + 1) % at.size()];
+            std::vector<std::uint32_t> between;
+            for (std::size_t r = (from + 1) % ring.ids.size(); r != to; r = (r + 1) % ring.ids.size())
+                between.push_back(ring.ids[r]);
+            if (!between.empty()) splitEdge(triangles, ring.ids[from], ring.ids[to], between);
+        }
+    }
+    mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
 }
 
 // A keyhole's slit: the quadrilateral of the ring's material between its two crossings, flat in
@@ -2151,6 +2256,7 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     result.tilingSeconds = secondsSince(tiling);
     emitBandsAndCaps();
     for (std::size_t j = 0; j < mJunctions.size(); ++j) tileJunction(j);
+    for (std::size_t p = 0; p < mPatches.size(); ++p) tilePatch(p);
     // Vertices a hair apart make needles (collapseNeedleEdges), or triangles of no area where a
     // junction part's crossing falls on a vertex of the single contour: all but the coarser
     // level's go. The baselines stay as their papers give them (the optimal tiler's is the least

@@ -34,9 +34,11 @@ struct Reconstruction::TubeEnd {
     int annulus = -1;          // an outer wall's end: the hole tube whose end, in the same
                                // plane, it joins by an annulus (a hollow pipe's rim); a hole
                                // tube's end: the outer tube that closes it so. -1: a cap
+    int patch = -1;            // the patch this end joins (no cap); -1: none
     bool goesOn = false;       // the object goes on past it: a piece of the slab that no
                                // construction resolved (its loops are capped one by one)
     double wBound = 0.0;       // how far its end contours and apex may go (closeEnds)
+    bool joined() const { return junction >= 0 || patch >= 0; } // closed by another surface
 };
 struct Reconstruction::Tube {
     std::vector<std::pair<int, int>> members; // (slice, loop) from first to last slice
@@ -87,6 +89,14 @@ struct Reconstruction::Junction : JunctionArcs {
                                          // around it (centreParts); else no polygon: the minimum-area tiler
     };
     std::vector<Part> parts; // per partner
+};
+
+/// A slab piece meshed from its cells (graph.h, SlabPatch): its loops end the tubes below it and
+/// start those above. Its vertices are the same at every level; its points on the loops join
+/// their rings as extras, so the bands on the loops' other side run through them.
+struct Reconstruction::Patch {
+    int below = -1, above = -1; // planes
+    SlabPatch surface;
 };
 
 struct Reconstruction::SliceCounts {

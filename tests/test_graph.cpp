@@ -18,8 +18,10 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using namespace pipetile;
@@ -158,6 +160,59 @@ TEST(Graph, SlabPiecesOfAFork)
     const std::vector<SlabPiece> pieces = connectThroughSlab(two, twoPlan, below, above);
     ASSERT_EQ(pieces.size(), 2u);
     for (const SlabPiece& piece : pieces) EXPECT_EQ(piece.kind, EventKind::Band);
+}
+
+// A piece's patch from its cells (graph.h, SlabPatch) on the Y: the band's is an annulus (Euler
+// characteristic 0), the fork's a pair of pants (-1). Each meets its loops at every one of their
+// points once, and its other vertices lie strictly between the planes; its triangles turn one way,
+// so each of its edges but the loops' lies in two of them, once each way.
+TEST(Graph, APatchHasItsPiecesTopologyAndFollowsItsLoops)
+{
+    const Volume& volume = test::cachedSample("ybranch");
+    const SlicePlan plan = planSlices(volume, SliceOptions{});
+    std::vector<std::vector<BoundaryLoop>> loops;
+    std::vector<PlaneLoops> planes;
+    for (double w : {60.0, 72.0, 112.0}) {
+        loops.push_back(traceBoundaries(SlicePlane(volume, plan, w)));
+        planes.push_back({w, {}, {}, {}});
+    }
+    for (std::size_t k = 0; k < planes.size(); ++k)
+        for (const BoundaryLoop& loop : loops[k]) {
+            planes[k].loops.push_back(&loop);
+            planes[k].centers.push_back(centralPoint(loop));
+        }
+    for (const auto& [below, euler] : {std::pair{0, 0}, std::pair{1, -1}}) {
+        SCOPED_TRACE(below);
+        const PlaneLoops &a = planes[below], &b = planes[below + 1];
+        const std::vector<SlabPiece> pieces = connectThroughSlab(volume, plan, a, b);
+        ASSERT_EQ(pieces.size(), 1u);
+        const std::optional<SlabPatch> patch = patchPiece(volume, plan, a, b, pieces[0]);
+        ASSERT_TRUE(patch);
+        EXPECT_EQ(patch->euler, euler);
+        std::map<std::tuple<int, int, int>, int> pointUses;
+        for (const SlabPatch::Vertex& v : patch->vertices) {
+            if (v.plane >= 0) {
+                ++pointUses[{v.plane, v.loop, v.point}];
+                continue;
+            }
+            EXPECT_GT(v.index[plan.axis], a.w);
+            EXPECT_LT(v.index[plan.axis], b.w);
+        }
+        std::size_t points = 0;
+        for (const PlaneLoops* plane : {&a, &b})
+            for (const BoundaryLoop* loop : plane->loops) points += loop->points.size();
+        EXPECT_EQ(pointUses.size(), points);
+        for (const auto& [point, uses] : pointUses) EXPECT_EQ(uses, 1);
+        std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+        for (const auto& t : patch->triangles)
+            for (int k = 0; k < 3; ++k) ++edges[{t[k], t[(k + 1) % 3]}];
+        std::size_t open = 0;
+        for (const auto& [edge, uses] : edges) {
+            EXPECT_EQ(uses, 1);
+            open += edges.count({edge.second, edge.first}) ? 0 : 1;
+        }
+        EXPECT_EQ(open, points); // one per crack, as many as the loops' points
+    }
 }
 
 namespace {
@@ -539,7 +594,46 @@ TEST(Graph, SlabsBisectionCannotPartPassThroughAWaist)
 // slab's middle, where the other side's meet it. The enclosed volume is then the isosurface's
 // give or take its area times a voxel: the bound for a surface within a voxel of it (caps meeting
 // inside the solid add none).
+namespace {
+
+// The top level of `volume`'s mesh along `axis` is closed, manifold and oriented, and encloses the
+// isosurface's volume to within its area times a voxel; its components are the isosurface's if
+// `sameComponents`.
+void expectTheIsosurfacesVolume(const Volume& volume, const Reconstruction& reconstruction, bool sameComponents)
+{
+    const TriangleMesh reference = isosurface(volume, 0.0);
+    const Topology r = checkTopology(reference);
+    const double tolerance = measureQuality(reference).area * volume.voxelSize().x;
+    const Topology t = checkTopology(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+    EXPECT_NEAR(t.signedVolume, std::abs(r.signedVolume), tolerance); // a fog's faces inward
+    if (sameComponents) {
+        EXPECT_EQ(t.components, r.components);
+    }
+}
+
+} // namespace
+
+// Ends where the object goes on, at a piece that nothing closes (the smoke along z), reach to the
+// slab's middle and are capped there (meetHalfway): capped on their own planes they left the
+// slab's layer out; end contours sought past them stacked inside the blob (at iso 0.1, 40 times
+// the isosurface's volume).
 TEST(Graph, EndsCappedWhereTheObjectGoesOnStayInTheirSlab)
+{
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    ASSERT_GT(reconstruction.stats().unresolvedEvents, 0); // else the smoke no longer shows the case
+    expectTheIsosurfacesVolume(volume, reconstruction, false);
+}
+
+// Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
+// edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
+// piece of the smoke at iso 0.1 has nothing capped and the isosurface's volume. (Its components
+// are not the isosurface's: 40 against 35, from the slabs' labelling, which joins diagonal pixels
+// between voxel planes where volumeToMesh may not.)
+TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
 {
     test::TempDir dir;
     const std::string path = dir.path("crop.vdb");
@@ -548,23 +642,35 @@ TEST(Graph, EndsCappedWhereTheObjectGoesOnStayInTheirSlab)
     read.iso = 0.1;
     const Volume volume = readVolume(path, read);
     const Reconstruction reconstruction(volume, MeshOptions{});
-    ASSERT_GT(reconstruction.stats().unresolvedEvents, 0); // else the crop no longer shows the case
-    const TriangleMesh reference = isosurface(volume, 0.0);
-    const double referenceVolume = std::abs(checkTopology(reference).signedVolume); // a fog's faces inward
-    const double tolerance = measureQuality(reference).area * volume.voxelSize().x;
-    const TriangleMesh top = reconstruction.buildLevel(MeshOptions{}.levels - 1).mesh;
-    const Topology t = checkTopology(top);
-    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
-    EXPECT_NEAR(t.signedVolume, referenceVolume, tolerance);
+    ASSERT_GT(reconstruction.stats().patches, 0); // else the crop no longer shows the case
+    EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
+    expectTheIsosurfacesVolume(volume, reconstruction, false);
 }
 
-// Known gap (CMakeLists.txt, WILL_FAIL): Gaffer's smoke as a whole. Its slabs' labelling sums to
-// Euler characteristic 402 where volumeToMesh's isosurface has 384: the two counts part in 17
-// ranges between voxel planes, and no cut of them (graph.h) both adds up to the cells' count and
-// keeps the loops at the range's ends joined as they were (a cut that matched the count alone
-// parted tubes: 266 components along x against 250). 8 pieces (with holes) stay capped (its 4 rings
-// against several walls are cut open by keyholes), and its levels have Euler characteristic 484
-// and 260 components against the isosurface's 384 and 231 (518 and 275 before the keyholes).
+// Gaffer's smoke as a whole, sliced along y: its 8 pieces of walls and holes that no
+// construction fits are patched from their cells, and every level has the isosurface's
+// components (capped contour by contour they gave 260 against 231).
+TEST(Graph, TheSmokesPiecesJoinAsTheIsosurfacesComponents)
+{
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    const Reconstruction reconstruction(volume, MeshOptions{});
+    ASSERT_GT(reconstruction.stats().patches, 0);
+    EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
+    for (int level = 0; level < reconstruction.levelCount(); ++level) {
+        const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
+        EXPECT_EQ(t.components, reference.components) << "level " << level;
+        EXPECT_EQ(t.euler, reconstruction.stats().eventEuler) << "level " << level;
+    }
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): the smoke's Euler characteristic. Its slabs' labelling
+// (with the handle a patch finds) sums to 400 where volumeToMesh's isosurface has 384: the two
+// counts part in 17 ranges between voxel planes, and no cut of them (graph.h) both adds up to the
+// cells' count and keeps the loops at the range's ends joined as they were (a cut that matched the
+// count alone parted tubes: 266 components along x against 250). Capped contour by contour, its
+// 8 pieces of walls and holes gave 484.
 TEST(Graph, DISABLED_KnownGapTheSmokeHasTheIsosurfaceTopology)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));

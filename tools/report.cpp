@@ -44,6 +44,9 @@ json graphJson(const Reconstruction& reconstruction)
                              {"crotch_w", j.crotchW},
                              {"single", j.single},
                              {"partners", j.partners}});
+    json patches = json::array();
+    for (const Skeleton::Patch& p : skeleton.patches)
+        patches.push_back({{"w_below", p.wBelow}, {"w_above", p.wAbove}, {"contours", p.contours}, {"euler", p.euler}});
     json unresolved = json::array();
     for (const Skeleton::Unresolved& u : skeleton.unresolved)
         unresolved.push_back({{"w_below", u.wBelow},
@@ -52,7 +55,7 @@ json graphJson(const Reconstruction& reconstruction)
                               {"holes_below", u.holesBelow},
                               {"walls_above", u.wallsAbove},
                               {"holes_above", u.holesAbove}});
-    return {{"segments", segments}, {"junctions", junctions}, {"unresolved", unresolved}};
+    return {{"segments", segments}, {"junctions", junctions}, {"patches", patches}, {"unresolved", unresolved}};
 }
 
 // The planes where the slabs' Euler characteristic parts from the isosurface's (validate.h).
@@ -118,13 +121,14 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"saddles", stats.saddles},
           {"rims", stats.rims},
           {"waists", stats.waists},
+          {"patches", stats.patches},
           {"keyholes", stats.keyholes},
           {"unresolved", stats.unresolvedEvents},
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},
           {"cell_matches", stats.cellMatches},
           {"euler", stats.eventEuler},
-          {"built_euler", stats.caps - stats.saddles},
+          {"built_euler", stats.caps - stats.saddles + stats.patchEuler},
           {"isosurface_euler", isosurface.total()},
           {"euler_differences", eulerDifferencesJson(isosurface, reconstruction)}}},
         {"graph", graphJson(reconstruction)},

@@ -22,7 +22,12 @@
 #include <pipetile/slicer.h>
 #include <pipetile/volume.h>
 
+#include <glm/vec3.hpp>
+
+#include <array>
+#include <cstdint>
 #include <functional>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -48,7 +53,10 @@ const char* toString(EventKind kind); // "band", "start", "end", "fork", "merge"
 struct SlabPiece {
     std::vector<int> below, above; // loop indices in the lower and upper plane, ascending
     EventKind kind = EventKind::Unresolved;
-    int euler() const { return 2 - static_cast<int>(below.size() + above.size()); }
+    int handles = 0; // that its patch found (SlabPatch); a patch of k parts counts k - 1 fewer
+    /// Its surface's share of the mesh's Euler characteristic: a sphere with a hole per loop (its
+    /// loops add nothing), less 2 per handle.
+    int euler() const { return 2 - static_cast<int>(below.size() + above.size()) - 2 * handles; }
 };
 
 /// The loops of one plane as the graph sees them.
@@ -67,6 +75,30 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
 
 /// The kind of a piece from its pattern and which of its loops bound holes.
 EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneLoops& above);
+
+/// A piece meshed from the slab's cells, where no construction from its contours fits it (an n:m
+/// piece of walls and holes: fog voxels meeting along edges and corners within one slab). Marching
+/// cubes between the slab's layers (its two planes and the voxel planes between), on the planes'
+/// pixels, with every saddle face decided as the slab's labelling joins it: so its surface
+/// separates exactly the piece's inside region from its outside region, has the piece's topology
+/// (handles included), and meets each plane in the piece's loops' own marching-squares polygons.
+struct SlabPatch {
+    struct Vertex {
+        int plane = -1;            // 0: a point of a loop below, 1: above; -1: inside the slab
+        int loop = -1, point = -1; // the loop (index into that plane's loops) and its point
+        glm::dvec3 index{0.0};     // inside the slab: index-space position
+    };
+    std::vector<Vertex> vertices;
+    std::vector<std::array<std::uint32_t, 3>> triangles; // facing the outside, in index space
+    int euler = 0; // of its surface: the piece's share of the mesh's Euler characteristic
+};
+
+/// The patch of `piece`, or nothing where its cells do not close into one: a cell's surface that
+/// touches the piece's inside and two outside regions the labelling keeps apart (layers between
+/// voxel planes, where a saddle across them is decided by neither), or a loop the patch does not
+/// follow all round.
+std::optional<SlabPatch> patchPiece(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                    const PlaneLoops& above, const SlabPiece& piece);
 
 /// The contour graph of a stack of planes: nodes are (plane, loop), and each slab between planes
 /// adjacent in w holds the pieces that join them.

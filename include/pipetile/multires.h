@@ -98,14 +98,18 @@ struct ReconstructionStats {
                                    // a merge into a contour in the slab's middle, then a fork
     int keyholes = 0;              // forks and merges of a ring (a wall and its hole) cut open into
                                    // one contour, its hole being too small to share out (graph.h)
+    int patches = 0;               // pieces of any other pattern (walls and holes n:m) meshed from
+                                   // their slab's cells (graph.h, SlabPatch)
     int unresolvedEvents = 0;      // pieces of any other pattern: their contours are capped one by
                                    // one, so the mesh's topology differs from the isosurface there
     int unresolvedJunctions = 0;   // forks and merges whose contours could not be split into one
                                    // arc per partner: capped one by one as well
-    long long eventEuler = 0;      // sum over the slab pieces of 2 - a - b: the isosurface's Euler
-                                   // characteristic as the slabs see it
-    int caps = 0;                  // tube ends closed by a cap (not a rim, not a junction): every
-                                   // level's Euler characteristic is caps - saddles
+    long long eventEuler = 0;      // sum over the slab pieces of 2 - a - b (a patch's: its own
+                                   // surface's): the isosurface's Euler characteristic as the slabs
+                                   // see it
+    int caps = 0;                  // tube ends closed by a cap (not a rim, a junction or a patch):
+                                   // every level's Euler characteristic is caps - saddles + patchEuler
+    long long patchEuler = 0;      // the patches' surfaces' Euler characteristics, summed
     int flatCaps = 0;              // caps with no apex found past the last slice (closed flat)
     int annularCaps = 0;           // hollow pipe rims: an outer and a hole contour ending in the
                                    // same plane, joined by an annulus (counted once, not as caps)
@@ -124,7 +128,7 @@ struct Skeleton {
         bool hole = false; // the inner wall of a hollow pipe (or a void)
         double wFirst = 0.0, wLast = 0.0;
         int contours = 0;
-        const char* bottom = "cap"; // "cap", "flat cap", "rim" or "junction"
+        const char* bottom = "cap"; // "cap", "flat cap", "rim", "junction" or "patch"
         const char* top = "cap";
         int bottomJunction = -1, topJunction = -1;
     };
@@ -140,8 +144,15 @@ struct Skeleton {
         double wBelow = 0.0, wAbove = 0.0;
         int wallsBelow = 0, holesBelow = 0, wallsAbove = 0, holesAbove = 0;
     };
+    /// A slab piece meshed from its cells (graph.h, SlabPatch).
+    struct Patch {
+        double wBelow = 0.0, wAbove = 0.0;
+        int contours = 0; // the segment ends it joins
+        int euler = 0;    // of its surface
+    };
     std::vector<Segment> segments;
     std::vector<Junction> junctions;
+    std::vector<Patch> patches;
     std::vector<Unresolved> unresolved;
 };
 
@@ -207,6 +218,7 @@ private:
     struct TubeEnd;
     struct Tube;
     struct Junction;
+    struct Patch;
     struct SliceCounts;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
@@ -227,6 +239,9 @@ private:
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
+    /// The piece meshed from its slab's cells (graph.h, patchPiece), appended to mPatches; false
+    /// where they do not close into one surface.
+    bool makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece);
     bool splitJunction(Junction& junction) const;
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
@@ -284,6 +299,7 @@ private:
     std::vector<std::vector<SliceLoop>> mLoops; // per plane of mPositions
     std::vector<Tube> mTubes;
     std::vector<Junction> mJunctions;
+    std::vector<Patch> mPatches;
     std::vector<Skeleton::Unresolved> mUnresolved;
     ContourGraph mGraph;
     std::optional<EulerProfile> mCells; // counted where the graph needed it (correspond())
