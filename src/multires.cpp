@@ -452,14 +452,40 @@ void Reconstruction::resolveEvents()
         mTubes.back().members.push_back({s, l});
         return tubeOf[s][l];
     };
+    // A patch's loops end the tubes below it and start those above; the handles it found are the
+    // piece's.
+    auto joinPatch = [&](const ContourGraph::Slab& slab, SlabPiece& piece) {
+        const int id = static_cast<int>(mPatches.size()) - 1;
+        for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.patch = id;
+        for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.patch = id;
+        ++mStats.patches;
+        mStats.patchEuler += mPatches.back().surface.euler;
+        const int before = piece.euler();
+        piece.handles = (before - mPatches.back().surface.euler) / 2;
+        mStats.eventEuler += piece.euler() - before;
+    };
     if (mGraph.order.empty()) return;
     const int first = mGraph.order.front(), last = mGraph.order.back();
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
     mStats.eventEuler += static_cast<long long>(mLoops[first].size());
+    // Where the cells count fewer than the pieces between two voxel planes (handles the pieces'
+    // 2 - a - b misses, which no cut showed: graph.h), a piece whose patch finds handles is
+    // meshed by it, whatever its kind.
+    std::vector<EulerDifference> missed;
+    if (mCells)
+        for (const EulerDifference& d : eulerDifferences(*mCells, mGraph, mPositions))
+            if (d.difference < 0) missed.push_back(d);
     for (ContourGraph::Slab& slab : mGraph.slabs) {
+        const bool missesHandles = std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) {
+            return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
+        });
         for (SlabPiece& piece : slab.pieces) { // a patch records the handles it finds
             mStats.eventEuler += piece.euler();
+            if (missesHandles && makePatch(slab, piece, true)) {
+                joinPatch(slab, piece);
+                continue;
+            }
             if (piece.kind == EventKind::Band) {
                 const int t = tubeOf[slab.below][piece.below[0]];
                 mTubes[t].members.push_back({slab.above, piece.above[0]});
@@ -498,15 +524,8 @@ void Reconstruction::resolveEvents()
                 mJunctions.push_back(std::move(junction));
                 continue;
             }
-            if ((joins || piece.kind == EventKind::Unresolved) && makePatch(slab, piece)) {
-                const int id = static_cast<int>(mPatches.size()) - 1;
-                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.patch = id;
-                for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.patch = id;
-                ++mStats.patches;
-                mStats.patchEuler += mPatches.back().surface.euler;
-                const int before = piece.euler();
-                piece.handles = (before - mPatches.back().surface.euler) / 2;
-                mStats.eventEuler += piece.euler() - before;
+            if ((joins || piece.kind == EventKind::Unresolved) && makePatch(slab, piece, false)) {
+                joinPatch(slab, piece);
                 continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
@@ -583,7 +602,7 @@ bool Reconstruction::makeWaist(const ContourGraph::Slab& slab, const SlabPiece& 
     return false;
 }
 
-bool Reconstruction::makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece)
+bool Reconstruction::makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece, bool onlyWithHandles)
 {
     // Unlike a waist, the cells give holes and handles too; but their triangles are as fine as
     // the voxels at every level, so the constructions from contours go first.
@@ -594,7 +613,7 @@ bool Reconstruction::makePatch(const ContourGraph::Slab& slab, const SlabPiece& 
         for (const SliceLoop& l : mLoops[s]) planes[side].loops.push_back(&l.loop);
     }
     std::optional<SlabPatch> surface = patchPiece(mVolume, mPlan, planes[0], planes[1], piece);
-    if (!surface) return false;
+    if (!surface || (onlyWithHandles && surface->euler >= piece.euler())) return false;
     mPatches.push_back({slab.below, slab.above, std::move(*surface)});
     return true;
 }

@@ -647,37 +647,48 @@ TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
     expectTheIsosurfacesVolume(volume, reconstruction, false);
 }
 
-// Gaffer's smoke as a whole, sliced along y: its 8 pieces of walls and holes that no
-// construction fits are patched from their cells, and every level has the isosurface's
-// components (capped contour by contour they gave 260 against 231).
-TEST(Graph, TheSmokesPiecesJoinAsTheIsosurfacesComponents)
+namespace {
+
+// Every level of the smoke sliced along `axis` against volumeToMesh's isosurface.
+void expectTheSmokesTopology(Axis axis)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
     const Topology reference = checkTopology(isosurface(volume, 0.0));
-    const Reconstruction reconstruction(volume, MeshOptions{});
-    ASSERT_GT(reconstruction.stats().patches, 0);
-    EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
+    MeshOptions options;
+    options.slicing.axis = axis;
+    const Reconstruction reconstruction(volume, options);
     for (int level = 0; level < reconstruction.levelCount(); ++level) {
         const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
         EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
+        EXPECT_EQ(t.euler, reference.euler) << "level " << level;
         EXPECT_EQ(t.components, reference.components) << "level " << level;
-        EXPECT_EQ(t.euler, reconstruction.stats().eventEuler) << "level " << level;
     }
 }
 
-// Known gap (CMakeLists.txt, WILL_FAIL): the smoke's Euler characteristic. Its slabs' labelling
-// (with the handle a patch finds) sums to 400 where volumeToMesh's isosurface has 384: the two
-// counts part in 17 ranges between voxel planes, and no cut of them (graph.h) both adds up to the
-// cells' count and keeps the loops at the range's ends joined as they were (a cut that matched the
-// count alone parted tubes: 266 components along x against 250). Capped contour by contour, its
-// 8 pieces of walls and holes gave 484.
-TEST(Graph, DISABLED_KnownGapTheSmokeHasTheIsosurfaceTopology)
+} // namespace
+
+// Gaffer's smoke as a whole, sliced along its longest side (y), has the isosurface's topology at
+// every level (Euler characteristic 384, 231 components). Its 8 pieces of walls and holes that
+// no construction fits are patched from their cells (capped contour by contour they gave 484 and
+// 260 components), and so are the 8 pieces in ranges where the cells count fewer than the pieces
+// and the patch finds the handles they miss (400 without).
+TEST(Graph, TheSmokeHasTheIsosurfaceTopology)
 {
-    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    const Topology t = checkTopology(Reconstruction(volume, MeshOptions{}).buildLevel(0).mesh);
-    EXPECT_EQ(t.euler, reference.euler);
-    EXPECT_EQ(t.components, reference.components);
+    expectTheSmokesTopology(Axis::Y);
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): the smoke sliced along x or z. Along x its slabs'
+// labelling joins regions volumeToMesh keeps apart (diagonal pixels in planes between voxel
+// planes are always joined; slicer.h, saddleJoins): Euler characteristic 350 and 214 components
+// against 384 and 231 (480 and 250 with its pieces capped, which hid the joins). Along z two
+// pieces fit neither a construction nor a patch (a cell's surface there touches two outside
+// regions) and are capped: 408 and 238 (582 and 302 before the patches).
+TEST(Graph, DISABLED_KnownGapTheSmokeAlongXAndZHasTheIsosurfaceTopology)
+{
+    for (const Axis axis : {Axis::X, Axis::Z}) {
+        SCOPED_TRACE(static_cast<int>(axis));
+        expectTheSmokesTopology(axis);
+    }
 }
 
 namespace {

@@ -240,8 +240,8 @@ private:
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
     /// The piece meshed from its slab's cells (graph.h, patchPiece), appended to mPatches; false
-    /// where they do not close into one surface.
-    bool makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece);
+    /// where they do not close into one surface, or with `onlyWithHandles` where it finds none.
+    bool makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece, bool onlyWithHandles);
     bool splitJunction(Junction& junction) const;
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
