@@ -475,50 +475,62 @@ glm::ivec2 pixelOffset(int corner)
     return {corner & 1, (corner >> 1) & 1};
 }
 
-// Marching cubes over the slab's labelled box for one piece (patchPiece).
+// Marching cubes over the slab's labelled box, once for several pieces (patchPieces): each cycle
+// of a cube goes to the piece whose regions it separates.
 class PatchBuilder {
 public:
+    // `keys`: per piece, the inside and outside regions it separates.
     PatchBuilder(const SlabLayers& layers, SlabLabels& slab, int axis, const PlaneLoops* const planes[2],
-                 const SlabPiece& piece, std::int32_t in, std::int32_t out)
+                 const std::vector<const SlabPiece*>& pieces,
+                 const std::vector<std::pair<std::int32_t, std::int32_t>>& keys)
         : mLayers(layers),
           mSlab(slab),
           mAxis(axis),
-          mIn(in),
-          mOut(out)
+          mPieces(pieces.size())
     {
-        for (int side = 0; side < 2; ++side)
-            for (int l : side == 0 ? piece.below : piece.above) {
-                const BoundaryLoop& loop = *planes[side]->loops[l];
-                const std::size_t n = loop.corners.size();
-                for (std::size_t k = 0; k < n; ++k) {
-                    const auto [inPixel, outPixel] = crackPixels(loop.corners[k], loop.corners[(k + 1) % n]);
-                    mCracks[{side, inPixel.x, inPixel.y, outPixel.x, outPixel.y}] = {l, static_cast<int>(k)};
+        for (std::size_t p = 0; p < pieces.size(); ++p) {
+            mPieceOf[keys[p]] = p;
+            for (int side = 0; side < 2; ++side)
+                for (int l : side == 0 ? pieces[p]->below : pieces[p]->above) {
+                    const BoundaryLoop& loop = *planes[side]->loops[l];
+                    const std::size_t n = loop.corners.size();
+                    for (std::size_t k = 0; k < n; ++k) {
+                        const auto [in, out] = crackPixels(loop.corners[k], loop.corners[(k + 1) % n]);
+                        mCracks[{side, in.x, in.y, out.x, out.y}] = {p, l, static_cast<int>(k)};
+                    }
+                    mPieces[p].cracks += n;
                 }
-                mCrackCount += n;
-            }
+        }
     }
 
-    // False where a cell's surface cannot be told to one piece (SlabPatch).
-    bool build()
+    // Per piece, its patch, or nothing where a cell's surface cannot be told to it (SlabPatch).
+    std::vector<std::optional<SlabPatch>> build()
     {
         for (int l = 0; l + 1 < mSlab.depth; ++l)
             for (int y = 0; y + 1 < mSlab.height; ++y)
-                for (int x = 0; x + 1 < mSlab.width; ++x)
-                    if (!cube(l, mSlab.lo + glm::ivec2(x, y))) return false;
-        return closes();
+                for (int x = 0; x + 1 < mSlab.width; ++x) cube(l, mSlab.lo + glm::ivec2(x, y));
+        std::vector<std::optional<SlabPatch>> patches;
+        for (Piece& piece : mPieces)
+            patches.push_back(!piece.failed && closes(piece) ? std::optional(std::move(piece.patch)) : std::nullopt);
+        return patches;
     }
 
-    SlabPatch patch;
-
 private:
+    struct Piece {
+        SlabPatch patch;
+        std::map<std::int64_t, std::uint32_t> vertices; // per cube edge crossed
+        std::size_t cracks = 0;                         // of its loops
+        bool failed = false;
+    };
+
     // The cube at layer l whose corner 0 is `pixel`: its cycles of isosurface points, each closed
-    // by the segments on its faces, and those that separate the piece's regions fanned into triangles.
-    bool cube(int l, const glm::ivec2& pixel)
+    // by the segments on its faces, and each fanned into its piece's triangles.
+    void cube(int l, const glm::ivec2& pixel)
     {
         bool in[8];
         int count = 0;
         for (int c = 0; c < 8; ++c) count += (in[c] = mSlab.insideAt(l + (c >> 2), pixel + pixelOffset(c))) ? 1 : 0;
-        if (count == 0 || count == 8) return true;
+        if (count == 0 || count == 8) return;
         // next[a * 8 + b]: the edge (as a corner pair) that follows edge (a, b) along its cycle.
         int next[64];
         std::fill(std::begin(next), std::end(next), -1);
@@ -532,10 +544,13 @@ private:
                 done[e] = true;
                 cycle.push_back(e);
             }
-            if (e != start) return false; // faces that do not chain (never, with the faces turned alike)
-            if (!addCycle(l, pixel, in, cycle)) return false;
+            // Faces turned alike always chain; were one not to, no piece here could be trusted.
+            if (e != start) {
+                for (Piece& piece : mPieces) piece.failed = true;
+                return;
+            }
+            addCycle(l, pixel, in, cycle);
         }
-        return true;
     }
 
     // Face f's segments, from the edge where its counterclockwise walk leaves the inside to the one
@@ -586,53 +601,63 @@ private:
         return contactJoins(mLayers.levelSet, inside, a, b);
     }
 
-    bool addCycle(int l, const glm::ivec2& pixel, const bool in[8], const std::vector<int>& cycle)
+    void addCycle(int l, const glm::ivec2& pixel, const bool in[8], const std::vector<int>& cycle)
     {
-        // The regions the cycle separates: the piece's, another piece's, or (a saddle between
-        // layers that no rule decides) two outside regions, which fails the piece's patch.
+        // The regions the cycle separates: a piece's, or (a saddle between layers that no rule
+        // decides) two outside regions, which fails the pieces of the inside one.
         std::int32_t inLabel = -1, outLabel = -1;
-        bool mixed = false, ours = false;
+        std::vector<std::int32_t> insides;
+        bool mixed = false;
         for (int e : cycle) {
             const int a = e / 8, b = e % 8, inner = in[a] ? a : b, outer = in[a] ? b : a;
             const std::int32_t i = mSlab.labels.find(mSlab.id(l + (inner >> 2), pixel + pixelOffset(inner)));
             const std::int32_t o = mSlab.labels.find(mSlab.id(l + (outer >> 2), pixel + pixelOffset(outer)));
             mixed = mixed || (inLabel >= 0 && (i != inLabel || o != outLabel));
-            ours = ours || i == mIn;
+            insides.push_back(i);
             inLabel = i;
             outLabel = o;
         }
-        if (mixed) return !ours;
-        if (inLabel != mIn || outLabel != mOut) return true;
+        if (mixed) {
+            for (const auto& [key, p] : mPieceOf)
+                if (std::find(insides.begin(), insides.end(), key.first) != insides.end()) mPieces[p].failed = true;
+            return;
+        }
+        const auto it = mPieceOf.find({inLabel, outLabel});
+        if (it == mPieceOf.end() || mPieces[it->second].failed) return;
+        Piece& piece = mPieces[it->second];
         std::vector<std::uint32_t> ids;
         for (int e : cycle) {
-            const std::optional<std::uint32_t> id = vertexOn(l, pixel, e / 8, e % 8, in);
-            if (!id) return false;
+            const std::optional<std::uint32_t> id = vertexOn(piece, it->second, l, pixel, e / 8, e % 8, in);
+            if (!id) {
+                piece.failed = true;
+                return;
+            }
             ids.push_back(*id);
         }
         // The cycle runs around the inside: its fan faces it, so the triangles turn to face out.
-        for (std::size_t k = 1; k + 1 < ids.size(); ++k) patch.triangles.push_back({ids[0], ids[k + 1], ids[k]});
-        return true;
+        for (std::size_t k = 1; k + 1 < ids.size(); ++k) piece.patch.triangles.push_back({ids[0], ids[k + 1], ids[k]});
     }
 
-    // The patch's vertex on the cube edge between corners a and b (a < b): a loop's point where
+    // The piece's vertex on the cube edge between corners a and b (a < b): a loop's point where
     // the edge lies in one of the slab's two planes, else where the field along it is zero.
-    std::optional<std::uint32_t> vertexOn(int l, const glm::ivec2& pixel, int a, int b, const bool in[8])
+    std::optional<std::uint32_t> vertexOn(Piece& piece, std::size_t p, int l, const glm::ivec2& pixel, int a, int b,
+                                          const bool in[8]) const
     {
         const int inner = in[a] ? a : b, outer = in[a] ? b : a;
         const int innerLayer = l + (inner >> 2), outerLayer = l + (outer >> 2);
         const glm::ivec2 innerPixel = pixel + pixelOffset(inner), outerPixel = pixel + pixelOffset(outer);
         const int axis = (b - a) == 4 ? 2 : (b - a) == 2 ? 1 : 0;
         const std::int64_t key = std::int64_t(mSlab.id(l + (a >> 2), pixel + pixelOffset(a))) * 3 + axis;
-        const auto [at, added] = mVertices.insert({key, static_cast<std::uint32_t>(patch.vertices.size())});
+        const auto [at, added] = piece.vertices.insert({key, static_cast<std::uint32_t>(piece.patch.vertices.size())});
         if (!added) return at->second;
         SlabPatch::Vertex vertex;
         if (axis < 2 && (innerLayer == 0 || innerLayer == mSlab.depth - 1)) {
             const int side = innerLayer == 0 ? 0 : 1;
             const auto crack = mCracks.find({side, innerPixel.x, innerPixel.y, outerPixel.x, outerPixel.y});
-            if (crack == mCracks.end()) return std::nullopt; // a loop no piece's
+            if (crack == mCracks.end() || std::get<0>(crack->second) != p) return std::nullopt; // no loop of the piece
             vertex.plane = side;
-            vertex.loop = crack->second.first;
-            vertex.point = crack->second.second;
+            vertex.loop = std::get<1>(crack->second);
+            vertex.point = std::get<2>(crack->second);
         } else {
             // As the walk places its points (contour.cpp): linear between the two samples.
             const double fin = mLayers.planes[innerLayer].value(innerPixel.x, innerPixel.y);
@@ -642,14 +667,15 @@ private:
             const double w = mLayers.w[innerLayer] + s * (mLayers.w[outerLayer] - mLayers.w[innerLayer]);
             vertex.index = planeToIndex(mAxis, uv, w);
         }
-        patch.vertices.push_back(vertex);
+        piece.patch.vertices.push_back(vertex);
         return at->second;
     }
 
     // Every edge in two triangles, once each way, but the loops' cracks, each in one: a surface
     // with the piece's loops, and nothing else, for boundary. Then its Euler characteristic.
-    bool closes()
+    static bool closes(Piece& piece)
     {
+        SlabPatch& patch = piece.patch;
         std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges; // directed
         for (const auto& t : patch.triangles)
             for (int k = 0; k < 3; ++k)
@@ -663,7 +689,7 @@ private:
             if (u.plane < 0 || u.plane != v.plane || u.loop != v.loop) return false;
             ++open;
         }
-        if (open != mCrackCount) return false;
+        if (open != piece.cracks) return false;
         patch.euler = static_cast<int>(patch.vertices.size()) - static_cast<int>(undirected) +
                       static_cast<int>(patch.triangles.size());
         return true;
@@ -672,43 +698,54 @@ private:
     const SlabLayers& mLayers;
     SlabLabels& mSlab;
     int mAxis;
-    std::int32_t mIn, mOut;
-    // Per crack of the piece's loops, by plane (0 below, 1 above), inside pixel and outside pixel:
-    // (loop, point).
-    std::map<std::tuple<int, int, int, int, int>, std::pair<int, int>> mCracks;
-    std::size_t mCrackCount = 0;
-    std::map<std::int64_t, std::uint32_t> mVertices; // per cube edge crossed
+    std::vector<Piece> mPieces;
+    std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> mPieceOf; // by inside and outside region
+    // Per crack of the pieces' loops, by plane (0 below, 1 above), inside pixel and outside pixel:
+    // (piece, loop, point).
+    std::map<std::tuple<int, int, int, int, int>, std::tuple<std::size_t, int, int>> mCracks;
 };
 
 } // namespace
 
-std::optional<SlabPatch> patchPiece(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
-                                    const PlaneLoops& above, const SlabPiece& piece)
+std::vector<std::optional<SlabPatch>> patchPieces(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                                  const PlaneLoops& above, const std::vector<const SlabPiece*>& pieces)
 {
     const PlaneLoops* const planes[2] = {&below, &above};
     std::optional<PixelBox> box;
-    for (int side = 0; side < 2; ++side)
-        for (int l : side == 0 ? piece.below : piece.above) {
-            const PixelBox b = boxOf(*planes[side]->loops[l]);
-            box = box ? PixelBox{glm::min(box->min, b.min), glm::max(box->max, b.max)} : b;
-        }
-    if (!box) return std::nullopt;
+    for (const SlabPiece* piece : pieces)
+        for (int side = 0; side < 2; ++side)
+            for (int l : side == 0 ? piece->below : piece->above) {
+                const PixelBox b = boxOf(*planes[side]->loops[l]);
+                box = box ? PixelBox{glm::min(box->min, b.min), glm::max(box->max, b.max)} : b;
+            }
+    if (!box) return std::vector<std::optional<SlabPatch>>(pieces.size());
     const SlabLayers layers(volume, plan, below.w, above.w);
     std::int64_t margin = 2 + static_cast<std::int64_t>(std::ceil(2.0 * (above.w - below.w))); // as clusterLoops
     SlabLabels slab = labelSlab(layers, plan, *box, margin);
-    // The regions the piece separates, which every one of its loops must separate here too.
-    std::optional<std::pair<std::int32_t, std::int32_t>> key;
-    for (int side = 0; side < 2; ++side)
-        for (int l : side == 0 ? piece.below : piece.above) {
-            const auto [in, out] = pixelsBeside(*planes[side]->loops[l]);
-            const int layer = side == 0 ? 0 : slab.depth - 1;
-            const std::pair regions{slab.labels.find(slab.id(layer, in)), slab.labels.find(slab.id(layer, out))};
-            if (key && *key != regions) return std::nullopt;
-            key = regions;
-        }
-    PatchBuilder builder(layers, slab, plan.axis, planes, piece, key->first, key->second);
-    if (!builder.build()) return std::nullopt;
-    return std::move(builder.patch);
+    // The regions each piece separates, which every one of its loops must separate here too; a
+    // piece whose loops part, or that shares its regions with another, gets no patch.
+    std::vector<std::pair<std::int32_t, std::int32_t>> keys;
+    std::vector<bool> agree;
+    for (const SlabPiece* piece : pieces) {
+        std::optional<std::pair<std::int32_t, std::int32_t>> key;
+        bool same = true;
+        for (int side = 0; side < 2; ++side)
+            for (int l : side == 0 ? piece->below : piece->above) {
+                const auto [in, out] = pixelsBeside(*planes[side]->loops[l]);
+                const int layer = side == 0 ? 0 : slab.depth - 1;
+                const std::pair regions{slab.labels.find(slab.id(layer, in)), slab.labels.find(slab.id(layer, out))};
+                same = same && (!key || *key == regions);
+                key = regions;
+            }
+        keys.push_back(key.value_or(std::pair{-1, -1}));
+        agree.push_back(same && key.has_value());
+    }
+    for (std::size_t p = 0; p < keys.size(); ++p)
+        if (std::count(keys.begin(), keys.end(), keys[p]) > 1) agree[p] = false;
+    std::vector<std::optional<SlabPatch>> patches = PatchBuilder(layers, slab, plan.axis, planes, pieces, keys).build();
+    for (std::size_t p = 0; p < patches.size(); ++p)
+        if (!agree[p]) patches[p].reset();
+    return patches;
 }
 
 double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b)

@@ -454,7 +454,8 @@ void Reconstruction::resolveEvents()
     };
     // A patch's loops end the tubes below it and start those above; the handles it found are the
     // piece's.
-    auto joinPatch = [&](const ContourGraph::Slab& slab, SlabPiece& piece) {
+    auto joinPatch = [&](const ContourGraph::Slab& slab, SlabPiece& piece, SlabPatch&& surface) {
+        mPatches.push_back({slab.below, slab.above, std::move(surface)});
         const int id = static_cast<int>(mPatches.size()) - 1;
         for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.patch = id;
         for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.patch = id;
@@ -480,10 +481,23 @@ void Reconstruction::resolveEvents()
         const bool missesHandles = std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) {
             return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
         });
-        for (SlabPiece& piece : slab.pieces) { // a patch records the handles it finds
+        // The patches the slab's pieces may take, in one pass over its cells: every piece's where
+        // handles were missed, else the unresolved ones'.
+        std::vector<const SlabPiece*> wanted;
+        std::vector<std::size_t> wantedAt;
+        for (std::size_t k = 0; k < slab.pieces.size(); ++k)
+            if (missesHandles || slab.pieces[k].kind == EventKind::Unresolved) {
+                wanted.push_back(&slab.pieces[k]);
+                wantedAt.push_back(k);
+            }
+        std::vector<std::optional<SlabPatch>> patches(slab.pieces.size()), found = patchesOf(slab, wanted);
+        for (std::size_t i = 0; i < found.size(); ++i) patches[wantedAt[i]] = std::move(found[i]);
+        for (std::size_t k = 0; k < slab.pieces.size(); ++k) {
+            SlabPiece& piece = slab.pieces[k]; // a patch records the handles it finds
+            std::optional<SlabPatch>& patch = patches[k];
             mStats.eventEuler += piece.euler();
-            if (missesHandles && makePatch(slab, piece, true)) {
-                joinPatch(slab, piece);
+            if (missesHandles && patch && patch->euler < piece.euler()) {
+                joinPatch(slab, piece, std::move(*patch));
                 continue;
             }
             if (piece.kind == EventKind::Band) {
@@ -524,8 +538,9 @@ void Reconstruction::resolveEvents()
                 mJunctions.push_back(std::move(junction));
                 continue;
             }
-            if ((joins || piece.kind == EventKind::Unresolved) && makePatch(slab, piece, false)) {
-                joinPatch(slab, piece);
+            if (joins && !patch) patch = std::move(patchesOf(slab, {&piece}).front());
+            if ((joins || piece.kind == EventKind::Unresolved) && patch) {
+                joinPatch(slab, piece, std::move(*patch));
                 continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
@@ -602,20 +617,19 @@ bool Reconstruction::makeWaist(const ContourGraph::Slab& slab, const SlabPiece& 
     return false;
 }
 
-bool Reconstruction::makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece, bool onlyWithHandles)
+std::vector<std::optional<SlabPatch>> Reconstruction::patchesOf(const ContourGraph::Slab& slab,
+                                                                const std::vector<const SlabPiece*>& pieces) const
 {
     // Unlike a waist, the cells give holes and handles too; but their triangles are as fine as
     // the voxels at every level, so the constructions from contours go first.
+    if (pieces.empty()) return {};
     PlaneLoops planes[2];
     for (int side = 0; side < 2; ++side) {
         const int s = side == 0 ? slab.below : slab.above;
         planes[side].w = mPositions[s];
         for (const SliceLoop& l : mLoops[s]) planes[side].loops.push_back(&l.loop);
     }
-    std::optional<SlabPatch> surface = patchPiece(mVolume, mPlan, planes[0], planes[1], piece);
-    if (!surface || (onlyWithHandles && surface->euler >= piece.euler())) return false;
-    mPatches.push_back({slab.below, slab.above, std::move(*surface)});
-    return true;
+    return patchPieces(mVolume, mPlan, planes[0], planes[1], pieces);
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const

@@ -186,7 +186,7 @@ TEST(Graph, APatchHasItsPiecesTopologyAndFollowsItsLoops)
         const PlaneLoops &a = planes[below], &b = planes[below + 1];
         const std::vector<SlabPiece> pieces = connectThroughSlab(volume, plan, a, b);
         ASSERT_EQ(pieces.size(), 1u);
-        const std::optional<SlabPatch> patch = patchPiece(volume, plan, a, b, pieces[0]);
+        const std::optional<SlabPatch> patch = patchPieces(volume, plan, a, b, {&pieces[0]}).front();
         ASSERT_TRUE(patch);
         EXPECT_EQ(patch->euler, euler);
         std::map<std::tuple<int, int, int>, int> pointUses;

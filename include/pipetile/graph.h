@@ -93,12 +93,13 @@ struct SlabPatch {
     int euler = 0; // of its surface: the piece's share of the mesh's Euler characteristic
 };
 
-/// The patch of `piece`, or nothing where its cells do not close into one: a cell's surface that
-/// touches the piece's inside and two outside regions the labelling keeps apart (layers between
-/// voxel planes, where a saddle across them is decided by neither), or a loop the patch does not
-/// follow all round.
-std::optional<SlabPatch> patchPiece(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
-                                    const PlaneLoops& above, const SlabPiece& piece);
+/// The patch of each of `pieces` (of the slab between `below` and `above`), from one labelling
+/// and one pass over the slab's cells; nothing for a piece whose cells do not close into one: a
+/// cell's surface that touches its inside and two outside regions the labelling keeps apart
+/// (layers between voxel planes, where a saddle across them is decided by neither), or a loop the
+/// patch does not follow all round.
+std::vector<std::optional<SlabPatch>> patchPieces(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                                  const PlaneLoops& above, const std::vector<const SlabPiece*>& pieces);
 
 /// The contour graph of a stack of planes: nodes are (plane, loop), and each slab between planes
 /// adjacent in w holds the pieces that join them.

@@ -239,9 +239,9 @@ private:
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
-    /// The piece meshed from its slab's cells (graph.h, patchPiece), appended to mPatches; false
-    /// where they do not close into one surface, or with `onlyWithHandles` where it finds none.
-    bool makePatch(const ContourGraph::Slab& slab, const SlabPiece& piece, bool onlyWithHandles);
+    /// The pieces meshed from their slab's cells (graph.h, patchPieces).
+    std::vector<std::optional<SlabPatch>> patchesOf(const ContourGraph::Slab& slab,
+                                                    const std::vector<const SlabPiece*>& pieces) const;
     bool splitJunction(Junction& junction) const;
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
