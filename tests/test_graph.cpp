@@ -586,14 +586,6 @@ TEST(Graph, SlabsBisectionCannotPartPassThroughAWaist)
     });
 }
 
-// Gaffer's smoke at iso 0.1 (data/README.md's value), a crop in its blob: 9 slab pieces there fit
-// no construction, and their contours are capped. Capped ends were taken for the object's own:
-// their apex was sought along the axis into the blob past the next plane, and up to 8 end contours
-// (16 voxels) stacked inside it, enclosing 10 times the isosurface's volume. Now an end stays
-// within half a voxel of its slab, and a contour capped at an unresolved piece reaches to the
-// slab's middle, where the other side's meet it. The enclosed volume is then the isosurface's
-// give or take its area times a voxel: the bound for a surface within a voxel of it (caps meeting
-// inside the solid add none).
 namespace {
 
 // The top level of `volume`'s mesh along `axis` is closed, manifold and oriented, and encloses the
@@ -614,10 +606,14 @@ void expectTheIsosurfacesVolume(const Volume& volume, const Reconstruction& reco
 
 } // namespace
 
-// Ends where the object goes on, at a piece that nothing closes (the smoke along z), reach to the
-// slab's middle and are capped there (meetHalfway): capped on their own planes they left the
-// slab's layer out; end contours sought past them stacked inside the blob (at iso 0.1, 40 times
-// the isosurface's volume).
+// Ends where the object goes on, at a piece that nothing closes (the smoke along z has two),
+// stay within their slab. Capped ends were taken for the object's own: their apex was sought
+// along the axis into the blob past the next plane, and at iso 0.1 up to 8 end contours (16
+// voxels) stacked inside it, enclosing 10 times the isosurface's volume. Now an end stays within
+// half a voxel of its slab, and a contour capped at an unresolved piece reaches to the slab's
+// middle, where the other side's meet it. The enclosed volume is then the isosurface's give or
+// take its area times a voxel: the bound for a surface within a voxel of it (caps meeting inside
+// the solid add none).
 TEST(Graph, EndsCappedWhereTheObjectGoesOnStayInTheirSlab)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
@@ -630,7 +626,8 @@ TEST(Graph, EndsCappedWhereTheObjectGoesOnStayInTheirSlab)
 
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
-// piece of the smoke at iso 0.1 has nothing capped and the isosurface's volume. (Its components
+// crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,
+// has nothing capped and the isosurface's volume. (Its components
 // are not the isosurface's: 40 against 35, from the slabs' labelling, which joins diagonal pixels
 // between voxel planes where volumeToMesh may not.)
 TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
