@@ -16,6 +16,7 @@
 #include <deque>
 #include <cmath>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <optional>
@@ -119,6 +120,30 @@ void expectIsosurfaceTopology(const std::string& name, int voids = 0, bool withi
 
 } // namespace
 
+namespace {
+
+// The loops of planes at `ws`, and each plane's PlaneLoops over them (with central points).
+struct TracedPlanes {
+    std::vector<std::vector<BoundaryLoop>> loops;
+    std::vector<PlaneLoops> planes;
+};
+TracedPlanes tracePlanes(const Volume& volume, const SlicePlan& plan, std::initializer_list<double> ws)
+{
+    TracedPlanes traced;
+    for (double w : ws) {
+        traced.loops.push_back(traceBoundaries(SlicePlane(volume, plan, w)));
+        traced.planes.push_back({w, {}, {}, {}});
+    }
+    for (std::size_t k = 0; k < traced.planes.size(); ++k)
+        for (const BoundaryLoop& loop : traced.loops[k]) {
+            traced.planes[k].loops.push_back(&loop);
+            traced.planes[k].centers.push_back(centralPoint(loop));
+        }
+    return traced;
+}
+
+} // namespace
+
 TEST(Graph, SlabPiecesOfAFork)
 {
     // The Y's trunk (radius 12, axis x = y = 64) forks at z = 80 into two branches of radius 9
@@ -128,17 +153,9 @@ TEST(Graph, SlabPiecesOfAFork)
     // planes at 60 and 72, both below the fork, by a band.
     const Volume& volume = test::cachedSample("ybranch");
     const SlicePlan plan = planSlices(volume, SliceOptions{});
-    std::vector<std::vector<BoundaryLoop>> loops;
-    std::vector<PlaneLoops> planes;
-    for (double w : {60.0, 72.0, 112.0}) {
-        loops.push_back(traceBoundaries(SlicePlane(volume, plan, w)));
-        planes.push_back({w, {}, {}, {}});
-    }
-    for (std::size_t k = 0; k < planes.size(); ++k)
-        for (const BoundaryLoop& loop : loops[k]) {
-            planes[k].loops.push_back(&loop);
-            planes[k].centers.push_back(centralPoint(loop));
-        }
+    const TracedPlanes traced = tracePlanes(volume, plan, {60.0, 72.0, 112.0});
+    const std::vector<std::vector<BoundaryLoop>>& loops = traced.loops;
+    const std::vector<PlaneLoops>& planes = traced.planes;
     ASSERT_EQ(loops[0].size(), 1u);
     ASSERT_EQ(loops[2].size(), 2u);
     const std::vector<SlabPiece> band = connectThroughSlab(volume, plan, planes[0], planes[1]);
@@ -170,17 +187,8 @@ TEST(Graph, APatchHasItsPiecesTopologyAndFollowsItsLoops)
 {
     const Volume& volume = test::cachedSample("ybranch");
     const SlicePlan plan = planSlices(volume, SliceOptions{});
-    std::vector<std::vector<BoundaryLoop>> loops;
-    std::vector<PlaneLoops> planes;
-    for (double w : {60.0, 72.0, 112.0}) {
-        loops.push_back(traceBoundaries(SlicePlane(volume, plan, w)));
-        planes.push_back({w, {}, {}, {}});
-    }
-    for (std::size_t k = 0; k < planes.size(); ++k)
-        for (const BoundaryLoop& loop : loops[k]) {
-            planes[k].loops.push_back(&loop);
-            planes[k].centers.push_back(centralPoint(loop));
-        }
+    const TracedPlanes traced = tracePlanes(volume, plan, {60.0, 72.0, 112.0});
+    const std::vector<PlaneLoops>& planes = traced.planes;
     for (const auto& [below, euler] : {std::pair{0, 0}, std::pair{1, -1}}) {
         SCOPED_TRACE(below);
         const PlaneLoops &a = planes[below], &b = planes[below + 1];
@@ -438,6 +446,21 @@ struct FogContact {
     int euler, components;
 };
 
+// Every level of `volume`'s mesh sliced along `axis`: closed, manifold and oriented, with
+// `reference`'s Euler characteristic and components.
+void expectEveryLevelAs(const Volume& volume, Axis axis, const Topology& reference)
+{
+    MeshOptions options;
+    options.slicing.axis = axis;
+    const Reconstruction reconstruction(volume, options);
+    for (int level = 0; level < reconstruction.levelCount(); ++level) {
+        const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
+        EXPECT_EQ(t.euler, reference.euler) << "level " << level;
+        EXPECT_EQ(t.components, reference.components) << "level " << level;
+    }
+}
+
 // Every level of the contact's fog at iso 0.5 against volumeToMesh's isosurface, whose Euler
 // characteristic and components are the contact's.
 void expectFogContactAsVolumeToMesh(const FogContact& contact)
@@ -461,15 +484,7 @@ void expectFogContactAsVolumeToMesh(const FogContact& contact)
     const Topology reference = checkTopology(isosurface(volume, 0.0));
     EXPECT_EQ(reference.euler, contact.euler);
     EXPECT_EQ(reference.components, contact.components);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    const Reconstruction reconstruction(volume, options);
-    for (int level = 0; level < reconstruction.levelCount(); ++level) {
-        const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
-        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
-        EXPECT_EQ(t.euler, reference.euler) << "level " << level;
-        EXPECT_EQ(t.components, reference.components) << "level " << level;
-    }
+    expectEveryLevelAs(volume, Axis::Z, reference);
 }
 
 } // namespace
@@ -650,16 +665,7 @@ namespace {
 void expectTheSmokesTopology(Axis axis)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    MeshOptions options;
-    options.slicing.axis = axis;
-    const Reconstruction reconstruction(volume, options);
-    for (int level = 0; level < reconstruction.levelCount(); ++level) {
-        const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
-        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
-        EXPECT_EQ(t.euler, reference.euler) << "level " << level;
-        EXPECT_EQ(t.components, reference.components) << "level " << level;
-    }
+    expectEveryLevelAs(volume, axis, checkTopology(isosurface(volume, 0.0)));
 }
 
 } // namespace

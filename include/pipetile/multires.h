@@ -98,8 +98,9 @@ struct ReconstructionStats {
                                    // a merge into a contour in the slab's middle, then a fork
     int keyholes = 0;              // forks and merges of a ring (a wall and its hole) cut open into
                                    // one contour, its hole being too small to share out (graph.h)
-    int patches = 0;               // pieces of any other pattern (walls and holes n:m) meshed from
-                                   // their slab's cells (graph.h, SlabPatch)
+    int patches = 0;               // pieces meshed from their slab's cells (graph.h, SlabPatch): of
+                                   // any other pattern (walls and holes n:m), or with handles the
+                                   // pieces missed and the cells count
     int unresolvedEvents = 0;      // pieces of any other pattern: their contours are capped one by
                                    // one, so the mesh's topology differs from the isosurface there
     int unresolvedJunctions = 0;   // forks and merges whose contours could not be split into one
