@@ -77,7 +77,8 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
 EventKind classify(const SlabPiece& piece, const PlaneLoops& below, const PlaneLoops& above);
 
 /// A piece meshed from the slab's cells, where no construction from its contours fits it (an n:m
-/// piece of walls and holes: fog voxels meeting along edges and corners within one slab). Marching
+/// piece of walls and holes: fog voxels meeting along edges and corners within one slab), or where
+/// the cells count handles that its loops do not show (multires.cpp, resolveEvents). Marching
 /// cubes between the slab's layers (its two planes and the voxel planes between), on the planes'
 /// pixels, with every saddle face decided as the slab's labelling joins it: so its surface
 /// separates exactly the piece's inside region from its outside region, has the piece's topology
