@@ -591,12 +591,27 @@ private:
     bool insideJoined(int l, const glm::ivec2& pixel, int f, const bool in[8]) const
     {
         if (f < 2) return mLayers.planes[l + f].saddleJoins(pixel + 1);
-        if (!mLayers.acrossVoxelPlanes(l)) return false;
-        // The lower layer's inside corner a and the upper layer's b, diagonal on the face.
+        // The lower layer's inside corner a and the upper layer's b, diagonal on the face; the
+        // outside corners c (lower) and d (upper).
         const int* q = kCubeFaces[f];
-        glm::ivec2 a(0), b(0);
-        for (int i = 0; i < 4; ++i)
-            if (in[q[i]]) (q[i] < 4 ? a : b) = pixel + pixelOffset(q[i]);
+        glm::ivec2 a(0), b(0), c(0), d(0);
+        for (int i = 0; i < 4; ++i) {
+            const glm::ivec2 p = pixel + pixelOffset(q[i]);
+            if (in[q[i]])
+                (q[i] < 4 ? a : b) = p;
+            else
+                (q[i] < 4 ? c : d) = p;
+        }
+        if (!mLayers.acrossVoxelPlanes(l)) {
+            // No rule decides a saddle between a plane and a voxel plane, and the labelling keeps
+            // both pairs apart. The surface must part one: the outside pair, unless only the
+            // inside pair is one region already, so that it joins no two regions the labelling
+            // keeps apart (a cycle that did could not be told to a piece).
+            const auto label = [&](int plane, const glm::ivec2& p) {
+                return mSlab.labels.find(mSlab.id(l + plane, p));
+            };
+            return label(0, a) == label(1, b) && label(0, c) != label(1, d);
+        }
         const auto inside = [&](int plane, const glm::ivec2& p) { return mSlab.insideAt(l + plane, p); };
         return contactJoins(mLayers.levelSet, inside, a, b);
     }

@@ -172,29 +172,22 @@ TEST(Cli, MeshesTheThinRealCarotid)
     meshAndCheck(dir, test::realData("ts_common_carotid_artery_left_ls.vdb"), "", 1);
 }
 
-TEST(Cli, WarnsWhereTopologyIsLeftUnresolved)
+TEST(Cli, WarnsOfNoUnresolvedPieceWhereEveryPieceIsPatched)
 {
-    // The gaffer smoke, a noisy fog, sliced along z holds slab pieces neither a construction nor
-    // their cells' patch closes; they are capped contour by contour, so the mesh's topology can
-    // differ from the isosurface's there. The run succeeds, and stderr says how many pieces, as
-    // the report counts them, in the grid it names. The aorta has none, and no such warning.
+    // A slab piece that neither a construction nor its cells' patch closes is capped contour by
+    // contour, and stderr says so (tools/frame.cpp, warnIfUnresolved). The gaffer smoke sliced
+    // along z at one level had two such pieces; now both are patched (graph.cpp, insideJoined),
+    // and no input at hand has one left (the smoke at iso 0.05 to 0.7 along each axis, 37
+    // white-noise fogs along each axis). So the run says nothing of them, and its report counts none.
     TempDir dir;
     const std::string report = dir.path("r.json");
     const test::CliResult smoke = runCli("mesh '" + test::realData("gaffer_smoke_fog.vdb") + "' -o '" +
                                          dir.path("s.ply") + "' --levels 1 --axis z --report '" + report + "'");
     ASSERT_EQ(smoke.exitCode, 0) << smoke.err;
     const nlohmann::json events = readJson(report)["events"];
-    const int pieces = events["unresolved"].get<int>() + events["unresolved_junctions"].get<int>();
-    EXPECT_GT(pieces, 1);
-    EXPECT_NE(smoke.err.find("pipetile: warning: grid 'density': " + std::to_string(pieces) + " slab pieces (" +
-                             std::to_string(events["unresolved_junctions"].get<int>()) +
-                             " of them forks or merges) fit no construction"),
-              std::string::npos)
-        << smoke.err;
-    const test::CliResult aorta =
-        runCli("mesh '" + test::realData("vmtk_aorta_ls.vdb") + "' -o '" + dir.path("a.ply") + "' --levels 1");
-    ASSERT_EQ(aorta.exitCode, 0) << aorta.err;
-    EXPECT_EQ(aorta.err.find("fit no construction"), std::string::npos) << aorta.err;
+    EXPECT_GT(events["patches"].get<int>(), 0);
+    EXPECT_EQ(events["unresolved"].get<int>() + events["unresolved_junctions"].get<int>(), 0);
+    EXPECT_EQ(smoke.err.find("fit no construction"), std::string::npos) << smoke.err;
 }
 
 TEST(Cli, WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss)

@@ -621,22 +621,22 @@ void expectTheIsosurfacesVolume(const Volume& volume, const Reconstruction& reco
 
 } // namespace
 
-// Ends where the object goes on, at a piece that nothing closes (the smoke along z has two),
-// stay within their slab. Capped ends were taken for the object's own: their apex was sought
-// along the axis into the blob past the next plane, and at iso 0.1 up to 8 end contours (16
-// voxels) stacked inside it, enclosing 10 times the isosurface's volume. Now an end stays within
-// half a voxel of its slab, and a contour capped at an unresolved piece reaches to the slab's
-// middle, where the other side's meet it. The enclosed volume is then the isosurface's give or
-// take its area times a voxel: the bound for a surface within a voxel of it (caps meeting inside
-// the solid add none).
-TEST(Graph, EndsCappedWhereTheObjectGoesOnStayInTheirSlab)
+// The smoke along z holds two pieces that fit no construction and whose cells' surface, between a
+// plane and a voxel plane, touches two outside regions the labelling keeps apart: no rule decides a
+// saddle face across such layers, and joining the outside pair left a cycle no piece could take.
+// They were capped contour by contour (Euler characteristic 408, 238 components). Joining the inside pair where
+// only it is one region already (graph.cpp, insideJoined) patches both: nothing is capped, the
+// components are the isosurface's (231, as counts) and so is the enclosed volume, within its
+// area times a voxel.
+TEST(Graph, TheSmokeAlongZHasNothingCapped)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
     MeshOptions options;
     options.slicing.axis = Axis::Z;
     const Reconstruction reconstruction(volume, options);
-    ASSERT_GT(reconstruction.stats().unresolvedEvents, 0); // else the smoke no longer shows the case
-    expectTheIsosurfacesVolume(volume, reconstruction, false);
+    ASSERT_GT(reconstruction.stats().patches, 0); // else the smoke no longer shows the case
+    EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
+    expectTheIsosurfacesVolume(volume, reconstruction, true);
 }
 
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
@@ -686,12 +686,9 @@ TEST(Graph, TheSmokeHasTheIsosurfaceTopology)
 // regions that volumeToMesh keeps apart, where is not found yet (not the
 // diagonal pixels between voxel planes, which the walk always joins: parting them all changed no
 // component): Euler characteristic 350 and 214 components against 384 and 231 (480 and 250 with
-// its pieces capped, which hid the joins). Along z two pieces fit neither a construction nor a
-// patch (a cell's surface there touches two outside regions the labelling keeps apart: between
-// layers that are not voxel planes it joins neither pair of a saddle face across them) and are
-// capped: 408 and 238 (582 and 302 before the patches). Joining the pair the bilinear field
-// joins there patches both (378 and 228) but parts the slabs from the cells in one more range on
-// every axis, and along y gives 382.
+// its pieces capped, which hid the joins). Along z: 382 and 231 (582 and 302 before the patches,
+// 408 and 238 before TheSmokeAlongZHasNothingCapped's two pieces were patched); the slabs differ
+// from the cells in 11 ranges between voxel planes, and by 2 in all.
 TEST(Graph, DISABLED_KnownGapTheSmokeAlongXAndZHasTheIsosurfaceTopology)
 {
     for (const Axis axis : {Axis::X, Axis::Z}) {
