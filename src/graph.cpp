@@ -604,9 +604,9 @@ private:
         }
         if (!mLayers.acrossVoxelPlanes(l)) {
             // No rule decides a saddle between a plane and a voxel plane, and the labelling keeps
-            // both pairs apart. The surface must part one: the outside pair, unless only the
-            // inside pair is one region already, so that it joins no two regions the labelling
-            // keeps apart (a cycle that did could not be told to a piece).
+            // both pairs apart. The surface must part one: the inside pair, unless only that pair
+            // is one region already, so that it joins no two regions the labelling keeps apart (a
+            // cycle that did could not be told to a piece).
             const auto label = [&](int plane, const glm::ivec2& p) {
                 return mSlab.labels.find(mSlab.id(l + plane, p));
             };
