@@ -96,9 +96,10 @@ struct SlabPatch {
 
 /// The patch of each of `pieces` (of the slab between `below` and `above`), from one labelling
 /// and one pass over the slab's cells; nothing for a piece whose cells do not close into one: a
-/// cell's surface that touches its inside and two outside regions the labelling keeps apart
-/// (layers between voxel planes, where a saddle across them is decided by neither), or a loop the
-/// patch does not follow all round.
+/// cell's surface that touches two inside or two outside regions the labelling keeps apart (a
+/// saddle face between a plane and a voxel plane, which no rule decides, joins its outside pair
+/// unless only its inside pair is one region already, so it fails only where both pairs are
+/// apart), or a loop the patch does not follow all round.
 std::vector<std::optional<SlabPatch>> patchPieces(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
                                                   const PlaneLoops& above, const std::vector<const SlabPiece*>& pieces);
 
