@@ -944,9 +944,10 @@ LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::v
 
 // Cuts the range (slabs between two voxel planes, in order) by planes every half, quarter, ...
 // of its thickness, keeping the planes it has, until its pieces add up to `target` and join the
-// loops of its two ends as the range did, with no more components (a cut may find a handle, never
-// part a tube the voxel planes' labelling joined, nor join two it kept apart, nor add a piece of a
-// loop too small to keep on a voxel plane), and on while they still do, down to
+// loops of its two ends as the range did, joining no two components (a cut may find a handle, or a
+// component of its own between the voxel planes, a speck the slices missed; it may never part a
+// tube the voxel planes' labelling joined, nor join two it kept apart), and on while they still do,
+// down to
 // a quarter of minThickness (as a fork's slab is halved: the finest cut places its saddles nearest
 // the surface's); then refines each slab of the finest such cut into `out`. False, with every
 // plane it added dropped again, if no cut matches by an eighth of minThickness, or once a cut
@@ -975,7 +976,8 @@ bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long l
             cut.push_back({it->second, std::next(it)->second, connect(it->second, std::next(it)->second)});
             euler += eulerOf(cut.back().pieces);
         }
-        const bool joinsAsBefore = loopGroups(cut, mPlanes) == groups;
+        const LoopGroups now = loopGroups(cut, mPlanes);
+        const bool joinsAsBefore = now.ends == groups.ends && now.count >= groups.count;
         if (euler == target && joinsAsBefore) {
             matched = std::move(cut);
             addedWhenMatched = added;
