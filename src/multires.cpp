@@ -472,15 +472,18 @@ void Reconstruction::resolveEvents()
     mStats.eventEuler += static_cast<long long>(mLoops[first].size());
     // Where the cells count fewer than the pieces between two voxel planes (handles the pieces'
     // 2 - a - b misses, which no cut showed: graph.h), a piece whose patch finds handles is
-    // meshed by it, whatever its kind.
+    // meshed by it, whatever its kind, as long as the range still misses that many: patches
+    // between interpolated planes can each find the one handle the cells count (the smoke, y 16
+    // to 17: two patches, each with a handle), and the first in w takes it.
     std::vector<EulerDifference> missed;
     if (mCells)
         for (const EulerDifference& d : eulerDifferences(*mCells, mGraph, mPositions))
             if (d.difference < 0) missed.push_back(d);
     for (ContourGraph::Slab& slab : mGraph.slabs) {
-        const bool missesHandles = std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) {
+        const auto range = std::find_if(missed.begin(), missed.end(), [&](const EulerDifference& d) {
             return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
         });
+        const bool missesHandles = range != missed.end();
         // The patches the slab's pieces may take, in one pass over its cells: every piece's where
         // handles were missed, else the unresolved ones'.
         std::vector<const SlabPiece*> wanted;
@@ -496,7 +499,9 @@ void Reconstruction::resolveEvents()
             SlabPiece& piece = slab.pieces[k]; // a patch records the handles it finds
             std::optional<SlabPatch>& patch = patches[k];
             mStats.eventEuler += piece.euler();
-            if (missesHandles && patch && patch->euler < piece.euler()) {
+            if (missesHandles && patch && patch->euler < piece.euler() &&
+                piece.euler() - patch->euler <= -range->difference) {
+                range->difference += piece.euler() - patch->euler;
                 joinPatch(slab, piece, std::move(*patch));
                 continue;
             }

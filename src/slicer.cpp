@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 namespace pipetile {
@@ -246,7 +247,14 @@ struct SlicePlane::Impl {
         for (std::size_t k : bridged) image[k] = std::min(image[k], kBarelyInside);
     }
 
-    double signedValue(float value) const { return sign * (static_cast<double>(value) - iso); }
+    // A fog voxel at the isovalue itself lies inside, a hair from the surface: volumeToMesh parts
+    // the two sides by value < iso, which is a fog's outside, so it takes such a voxel for the
+    // dense side (the gaffer smoke's default isovalue is the value of 19 of its voxels).
+    double signedValue(float value) const
+    {
+        const double f = sign * (static_cast<double>(value) - iso);
+        return f == 0.0 && sign < 0.0 ? -std::numeric_limits<double>::min() : f;
+    }
 
     double voxel(int u, int v, int wi) const
     {

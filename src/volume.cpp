@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -341,11 +342,34 @@ double defaultFogIso(const openvdb::FloatGrid& grid, long long& hot)
     return isos.front();
 }
 
+// volumeToMesh takes a fog voxel at the isovalue itself for the dense side, and meshes one whose
+// 26 neighbours all lie below as a component of no size (8 points at one spot; 2 of the gaffer
+// smoke's 19 half-float voxels at its halfway value): a default isovalue that makes one moves to
+// the next float above, where none does. A voxel at the isovalue next to a denser one only
+// places the surface on it (the cone's CT values at -500).
+double offVoxelValues(const openvdb::FloatGrid& grid, double iso)
+{
+    const float at = static_cast<float>(iso);
+    const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
+    const auto speck = [&](const openvdb::Coord& c) {
+        for (int dz = -1; dz <= 1; ++dz)
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx)
+                    if ((dx | dy | dz) != 0 && !(accessor.getValue(c.offsetBy(dx, dy, dz)) < at)) return false;
+        return true;
+    };
+    for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf)
+        for (auto on = leaf->cbeginValueOn(); on; ++on)
+            if (*on == at && speck(on.getCoord()))
+                return static_cast<double>(std::nextafter(at, std::numeric_limits<float>::infinity()));
+    return iso;
+}
+
 long long countInside(const openvdb::FloatGrid& grid, VolumeClass volumeClass, double iso)
 {
     long long inside = 0;
     forEachActiveVoxel(grid, [&](float value) {
-        inside += (volumeClass == VolumeClass::LevelSet ? value < iso : value > iso) ? 1 : 0;
+        inside += (volumeClass == VolumeClass::LevelSet ? value < iso : value >= iso) ? 1 : 0; // as volumeToMesh
     });
     return inside;
 }
@@ -587,7 +611,7 @@ Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& o
     } else if (impl->volumeClass == VolumeClass::LevelSet) {
         impl->iso = 0.0;
     } else {
-        impl->iso = defaultFogIso(*grid, impl->hotVoxels);
+        impl->iso = offVoxelValues(*grid, defaultFogIso(*grid, impl->hotVoxels));
     }
     const double iso = impl->iso;
     impl->insideVoxels = countInside(*grid, impl->volumeClass, iso);

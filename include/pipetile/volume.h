@@ -17,7 +17,7 @@ namespace pipetile {
 /// How the values of a grid relate to the object it describes.
 enum class VolumeClass {
     LevelSet, // signed distance: inside where value < iso (default iso 0)
-    Fog,      // density: inside where value > iso
+    Fog,      // density: inside where value >= iso (volumeToMesh parts the two sides by value < iso)
 };
 
 /// Fewer active voxels than this (a 3 x 3 x 3 block) inside a surface make specks, not an object:
@@ -28,8 +28,9 @@ struct VolumeOptions {
     std::string gridName;      // empty: the first scalar float grid of the file
     std::optional<double> iso; // unset: 0 for level sets; for fog volumes, halfway between the
                                // background and the largest active value that leaves at least
-                               // kFewestObjectVoxels inside (so one hot voxel cannot set it;
-                               // documented in README)
+                               // kFewestObjectVoxels inside (so one hot voxel cannot set it),
+                               // or the next float above where a voxel holding that value
+                               // exactly has no neighbour as dense (documented in README)
 };
 
 /// Name, type and class of one grid in a file, as `pipetile info` lists them.
@@ -46,7 +47,8 @@ struct GridSummary {
 /// copy keeps the grid alive, and copies may be read from any number of threads. A
 /// default-constructed Volume is empty (valid() false); every other member requires valid().
 /// The signed field `f = (value - iso)` for level sets and `f = (iso - value)` for fog volumes is
-/// negative inside the object for both classes; everything downstream works with that field.
+/// negative inside the object for both classes; everything downstream works with that field (a
+/// slice takes a fog voxel at the isovalue itself for a hair inside, as volumeToMesh does).
 class Volume {
 public:
     struct Impl;
