@@ -947,9 +947,8 @@ LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::v
 // loops of its two ends as the range did, joining no two components (a cut may find a handle, or a
 // component of its own between the voxel planes, a speck the slices missed; it may never part a
 // tube the voxel planes' labelling joined, nor join two it kept apart), and on while they still do,
-// down to
-// a quarter of minThickness (as a fork's slab is halved: the finest cut places its saddles nearest
-// the surface's); then refines each slab of the finest such cut into `out`. False, with every
+// down to a quarter of minThickness (as a fork's slab is halved: the finest cut places its saddles
+// nearest the surface's); then refines each slab of the finest such cut into `out`. False, with every
 // plane it added dropped again, if no cut matches by an eighth of minThickness, or once a cut
 // joins the loops otherwise (finer ones would not undo it).
 bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long long target,

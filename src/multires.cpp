@@ -2300,7 +2300,6 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     // level's go. The baselines stay as their papers give them (the optimal tiler's is the least
     // area): only copies of one point go, a millionth of a voxel apart (the aorta's shortest edge
     // is 5e-5 voxel).
-    if (getenv("PT_NOQ")) return std::move(result);
     const bool paper = mOptions.tiler == TilerKind::ContourTree;
     const double voxel = mVolume.smallestVoxel();
     collapseNeedleEdges(mesh, (paper ? kNeedleEdgeVoxels : 1e-6) * voxel, coarser, kShortEdgeAspect);

@@ -149,8 +149,9 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 /// planes of the graph. Where they differ (a pinhole through a one-voxel wall joins two sides that
 /// both planes show joined elsewhere: a handle inside a band's slab), the slabs there are cut by
 /// planes every half, quarter, ... of the range (down to an eighth of `minThickness`) until their
-/// pieces add up to the cells' and join the loops at the range's ends as the range did, and then
-/// refined as above; if they never do, the planes are dropped again and the slabs stay as they
+/// pieces add up to the cells' and join the loops at the range's ends as the range did (a
+/// component of their own between them may come in: a speck the slices missed), and then refined
+/// as above; if they never do, the planes are dropped again and the slabs stay as they
 /// were. A range whose difference the next one undoes (a critical point the two place on either
 /// side of a voxel plane) is left alone. A graph of bands and ends alone is not compared: counting
 /// the cells would cost a single tube most of its time.
