@@ -1020,6 +1020,41 @@ TEST(Graph, AWallARayGrazesIsTiledAlongIt)
     expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(tree, "grazed capsule tree"));
 }
 
+namespace {
+
+// Seeds 6 and 11 of the crossing trees' generator (to a hundredth of a voxel), whose walls join
+// into rings (RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole).
+const std::vector<std::vector<Capsule>>& ringTrees()
+{
+    static const std::vector<std::vector<Capsule>> trees = {{{{56, 56, 10}, {56, 56, 38.46}, 7},
+                                                             {{56, 56, 38.46}, {41.82, 55.23, 53.61}, 5.25},
+                                                             {{41.82, 55.23, 53.61}, {38.79, 68.81, 68.82}, 3.9375},
+                                                             {{41.82, 55.23, 53.61}, {30.85, 39.73, 60.23}, 3.9375},
+                                                             {{56, 56, 38.46}, {52.19, 64.34, 58.18}, 5.25},
+                                                             {{52.19, 64.34, 58.18}, {68.16, 59.3, 68.96}, 3.9375},
+                                                             {{52.19, 64.34, 58.18}, {52.57, 51.85, 66.75}, 3.9375},
+                                                             {{52.19, 64.34, 58.18}, {45.49, 74.93, 70.09}, 3.9375},
+                                                             {{56, 56, 38.46}, {59.1, 69.3, 61.65}, 5.25},
+                                                             {{59.1, 69.3, 61.65}, {53.31, 77, 75.02}, 3.9375},
+                                                             {{59.1, 69.3, 61.65}, {60.26, 68.4, 82.04}, 3.9375},
+                                                             {{59.1, 69.3, 61.65}, {59.38, 75.7, 80.63}, 3.9375}},
+                                                            {{{56, 56, 10}, {56, 56, 33.54}, 7},
+                                                             {{56, 56, 33.54}, {72.73, 49.03, 52.89}, 5.25},
+                                                             {{72.73, 49.03, 52.89}, {83.48, 45.87, 68.06}, 3.9375},
+                                                             {{72.73, 49.03, 52.89}, {85.15, 46.65, 63}, 3.9375},
+                                                             {{56, 56, 33.54}, {52.73, 60, 55.46}, 5.25},
+                                                             {{52.73, 60, 55.46}, {62.67, 47.17, 63.98}, 3.9375},
+                                                             {{52.73, 60, 55.46}, {45.99, 47.22, 62.07}, 3.9375},
+                                                             {{52.73, 60, 55.46}, {42.97, 51.37, 67.39}, 3.9375},
+                                                             {{56, 56, 33.54}, {53.74, 48.78, 53.91}, 5.25},
+                                                             {{53.74, 48.78, 53.91}, {50.26, 49.33, 74.62}, 3.9375},
+                                                             {{53.74, 48.78, 53.91}, {46.1, 47.78, 68.77}, 3.9375},
+                                                             {{53.74, 48.78, 53.91}, {41.73, 39.26, 60.51}, 3.9375}}};
+    return trees;
+}
+
+} // namespace
+
 TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
 {
     // Seeds 6 and 11 of the crossing trees' generator (to a hundredth of a voxel), sliced along x.
@@ -1032,30 +1067,7 @@ TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
     // components for 1; seed 11 as wrong). Cut open into one contour by a keyhole through the
     // partners' gap, each is an ordinary fork or merge, and every level has the isosurface's
     // topology.
-    const std::vector<std::vector<Capsule>> trees = {{{{56, 56, 10}, {56, 56, 38.46}, 7},
-                                                      {{56, 56, 38.46}, {41.82, 55.23, 53.61}, 5.25},
-                                                      {{41.82, 55.23, 53.61}, {38.79, 68.81, 68.82}, 3.9375},
-                                                      {{41.82, 55.23, 53.61}, {30.85, 39.73, 60.23}, 3.9375},
-                                                      {{56, 56, 38.46}, {52.19, 64.34, 58.18}, 5.25},
-                                                      {{52.19, 64.34, 58.18}, {68.16, 59.3, 68.96}, 3.9375},
-                                                      {{52.19, 64.34, 58.18}, {52.57, 51.85, 66.75}, 3.9375},
-                                                      {{52.19, 64.34, 58.18}, {45.49, 74.93, 70.09}, 3.9375},
-                                                      {{56, 56, 38.46}, {59.1, 69.3, 61.65}, 5.25},
-                                                      {{59.1, 69.3, 61.65}, {53.31, 77, 75.02}, 3.9375},
-                                                      {{59.1, 69.3, 61.65}, {60.26, 68.4, 82.04}, 3.9375},
-                                                      {{59.1, 69.3, 61.65}, {59.38, 75.7, 80.63}, 3.9375}},
-                                                     {{{56, 56, 10}, {56, 56, 33.54}, 7},
-                                                      {{56, 56, 33.54}, {72.73, 49.03, 52.89}, 5.25},
-                                                      {{72.73, 49.03, 52.89}, {83.48, 45.87, 68.06}, 3.9375},
-                                                      {{72.73, 49.03, 52.89}, {85.15, 46.65, 63}, 3.9375},
-                                                      {{56, 56, 33.54}, {52.73, 60, 55.46}, 5.25},
-                                                      {{52.73, 60, 55.46}, {62.67, 47.17, 63.98}, 3.9375},
-                                                      {{52.73, 60, 55.46}, {45.99, 47.22, 62.07}, 3.9375},
-                                                      {{52.73, 60, 55.46}, {42.97, 51.37, 67.39}, 3.9375},
-                                                      {{56, 56, 33.54}, {53.74, 48.78, 53.91}, 5.25},
-                                                      {{53.74, 48.78, 53.91}, {50.26, 49.33, 74.62}, 3.9375},
-                                                      {{53.74, 48.78, 53.91}, {46.1, 47.78, 68.77}, 3.9375},
-                                                      {{53.74, 48.78, 53.91}, {41.73, 39.26, 60.51}, 3.9375}}};
+    const std::vector<std::vector<Capsule>>& trees = ringTrees();
     for (std::size_t k = 0; k < trees.size(); ++k) {
         SCOPED_TRACE(k == 0 ? "seed 6" : "seed 11");
         const Volume volume = capsuleUnion(trees[k], "ring-merging capsule tree");
@@ -1072,6 +1084,26 @@ TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
             EXPECT_EQ(t.euler, reference.euler);
             EXPECT_EQ(t.components, reference.components);
         });
+    }
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): the ring trees above have the isosurface's topology at
+// every level, but their top levels are 1.44 (seed 6) and 1.46 (seed 11) voxels off. Seen in
+// each, sliced along x:
+// - seed 6: between a merge at x = 54.5 and a fork at 55 (one segment half a voxel long), a vertex
+//   of the contour at 55 is fanned onto crossings of the contour at 54.5 twelve pixels away (1.40);
+//   and at x = 59.25 two consecutive crossings lie 33 pixels apart along the trunk's straight
+//   wall, a chord 1.2 voxels inside it that the top level's halvings of straying sectors leave;
+// - seed 11: the keyhole that cuts the ring open at the merge at x = 50.5 runs through its wall
+//   where the partners' plane, 50, is inside too (no slit from the wall to the hole is clear of
+//   it, however long). Its crossings lie in the plane 50.5, up to 1.46 voxels inside, where the
+//   surface is a wall near x = 49: the field does not change sides between the two planes there.
+TEST(Graph, DISABLED_KnownGapRingTreesAreWithinAVoxelAtTheTopLevel)
+{
+    const std::vector<std::vector<Capsule>>& trees = ringTrees();
+    for (std::size_t k = 0; k < trees.size(); ++k) {
+        SCOPED_TRACE(k == 0 ? "seed 6" : "seed 11");
+        expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(trees[k], "ring-merging capsule tree"));
     }
 }
 
