@@ -745,7 +745,15 @@ TEST(Graph, TheSmokeHasTheIsosurfaceTopology)
 // Known gap (CMakeLists.txt, WILL_FAIL): the smoke sliced along z has the isosurface's Euler
 // characteristic, 386, but 233 components against 231: where 33 of the isosurface's components lie
 // within a voxel of each other the mesh has 35. (582 and 302 before the patches, 408 and 238
-// before TheSmokeAlongZHasNothingCapped's two pieces were patched.)
+// before TheSmokeAlongZHasNothingCapped's two pieces were patched.) The two extra components are
+// voids of one voxel each, enclosed by their six neighbours, that the isosurface opens on the
+// exterior across saddle faces between voxel planes a voxel apart, where the slices add a plane
+// between: the voxel at (53, 25, 48), index space, opens across the face to (54, 25, 49), whose
+// outside pair volumeToMesh's tables join (saddleJoinsInside) while the plane at 48.5 shows both
+// pixels there inside; the voxel at (67, 18, 53) across faces to voxels at 52, with a plane at
+// 52.5. Showing such faces at the planes between as volumeToMesh decides them, barely outside as
+// bridges are shown barely inside (slicer.cpp, showBridges), was tried: along z 2 pieces were then
+// left unresolved (396 and 235), and along x the mesh lost a component (384 and 230).
 TEST(Graph, DISABLED_KnownGapTheSmokeAlongZHasTheIsosurfaceTopology)
 {
     expectTheSmokesTopology(Axis::Z);
