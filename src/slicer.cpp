@@ -216,10 +216,17 @@ struct SlicePlane::Impl {
             }
     }
 
-    // Voxels of planes w0 and w0 + 1 that touch along an edge across them, where volumeToMesh
-    // joins them (saddleJoinsInside), are one region, but a plane between them may see neither
-    // inside: the field there is an average of inside and outside. Both pixels are made inside
-    // (barely), so that the walk and the slab see the bridge at every plane between.
+    // Voxels of planes w0 and w0 + 1 that touch along an edge across them (a saddle on the face
+    // between them) are one region or not as volumeToMesh decides (saddleJoinsInside), but a plane
+    // between them shows an average of inside and outside, which may decide the other way:
+    // - where volumeToMesh joins the inside pair and the plane shows them apart, both pixels are
+    //   made inside (barely), so that the walk and the slab see the bridge at every plane between;
+    // - where it joins the outside pair and one of them is a voxel its own plane encloses (its four
+    //   neighbours there inside), the plane must show that voxel's way out, else it is a void of its
+    //   own (the gaffer smoke along z had two): unless the plane shows both pixels outside already,
+    //   both are made as far outside as their outside voxels are. (Barely outside, they made holes
+    //   of no area, which the slices drop; parting such pixels where neither voxel is enclosed, and
+    //   the face only decides which side closes a loop, lost components along x and z.)
     void showBridges(const std::vector<double>& low, const std::vector<double>& high)
     {
         auto at = [&](const glm::ivec2& q) { return static_cast<std::size_t>(q.y) * imageWidth + q.x; };
@@ -227,9 +234,15 @@ struct SlicePlane::Impl {
             const bool held = q.x >= 0 && q.y >= 0 && q.x < imageWidth && q.y < imageHeight;
             return held && (plane == 0 ? low : high)[at(q)] < 0.0;
         };
+        // An outside pixel of a plane whose four neighbours there are inside.
+        auto enclosed = [&](int plane, const glm::ivec2& q) {
+            return inside(plane, q + glm::ivec2(1, 0)) && inside(plane, q - glm::ivec2(1, 0)) &&
+                   inside(plane, q + glm::ivec2(0, 1)) && inside(plane, q - glm::ivec2(0, 1));
+        };
         constexpr double kBarelyInside = -1e-9;
         const bool levelSet = sign > 0.0;
         std::vector<std::size_t> bridged;
+        std::vector<std::pair<std::size_t, double>> parted; // with the value each takes
         for (int y = 1; y + 1 < imageHeight; ++y)
             for (int x = 1; x + 1 < imageWidth; ++x) {
                 const glm::ivec2 a(x, y);
@@ -237,13 +250,21 @@ struct SlicePlane::Impl {
                 for (const glm::ivec2 step :
                      {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
                     const glm::ivec2 b = a + step;
-                    if (inside(0, b) || !inside(1, b)) continue;            // outside below, inside above
-                    if (image[at(a)] < 0.0 && image[at(b)] < 0.0) continue; // the plane shows it already
-                    if (!contactJoins(levelSet, inside, a, b)) continue;
-                    bridged.push_back(at(a));
-                    bridged.push_back(at(b));
+                    if (inside(0, b) || !inside(1, b)) continue; // outside below, inside above
+                    const bool shownInside = image[at(a)] < 0.0 && image[at(b)] < 0.0;
+                    const bool shownOutside = !(image[at(a)] < 0.0) && !(image[at(b)] < 0.0);
+                    if (contactJoins(levelSet, inside, a, b)) {
+                        if (shownInside) continue; // the plane shows it already
+                        bridged.push_back(at(a));
+                        bridged.push_back(at(b));
+                    } else if (!shownOutside && (enclosed(0, b) || enclosed(1, a))) {
+                        parted.emplace_back(at(a), high[at(a)]);
+                        parted.emplace_back(at(b), low[at(b)]);
+                    }
                 }
             }
+        // A pixel parted by one face and bridged by another stays inside, as before parting.
+        for (const auto& [k, value] : parted) image[k] = std::max(image[k], value);
         for (std::size_t k : bridged) image[k] = std::min(image[k], kBarelyInside);
     }
 

@@ -373,7 +373,8 @@ TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
 {
     // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy fog,
     // keeps largest aspect ratios 137, 177, 320 and 320 at levels 0 to 3, and one triangle of no
-    // area at level 2 (README, Known gaps: at a patch a sixteenth of a voxel thin); with its pieces
+    // area at levels 2 and 3 (at level 2 alone before planes between voxel planes opened the voids
+    // volumeToMesh opens; README, Known gaps: at a patch a sixteenth of a voxel thin); with its pieces
     // capped contour by contour, 945, 1008, 320 and 320 (444 at level 3 before
     // specks collapsed; 154 and 177 at levels 0 and 1 before its keyholes: the worst now lie at a
     // keyhole's fork, where a speck of a branch owns a sliver of the contour that the minimum-area

@@ -83,10 +83,12 @@ bool contactJoins(bool levelSet, const InsideFn& inside, const glm::ivec2& a, co
 /// The signed field (negative inside) on one slice plane. Stateful: it owns an OpenVDB accessor,
 /// so use one object per thread. It keeps references to the Volume and the SlicePlan it was made
 /// from: both must outlive it. Coordinates are in-plane pixels (u, v), index space (see above);
-/// nothing here is in world units. Reads throw nothing. Values between voxel planes are interpolated linearly along w,
-/// except in the image eastCracks() reads: there both pixels of a contact across the two voxel
-/// planes that volumeToMesh joins (saddleJoinsInside) are made barely inside, a bridge that the
-/// interpolation, an average of inside and outside, may not show.
+/// nothing here is in world units. Reads throw nothing. Values between voxel planes are
+/// interpolated linearly along w, except in the image eastCracks() reads, where a contact across
+/// the two voxel planes is shown as volumeToMesh decides it (saddleJoinsInside), which the
+/// interpolation, an average of inside and outside, may not show: both pixels of a contact it joins
+/// are made barely inside (a bridge), and both of one whose outside pair it joins, through a voxel
+/// its own plane encloses, are made outside.
 class SlicePlane {
 public:
     /// @param volume [in] the grid to read; must be valid() and outlive the plane
