@@ -1125,20 +1125,26 @@ void Reconstruction::closeEnds()
             (top ? tube.top : tube.bottom).wBound = w + direction * (roomPast(w, direction) + kPastNextPlane);
         }
     }
-    for (Tube& tube : mTubes) {
-        for (const bool top : {false, true}) {
-            // Where the object goes on, the region past the plane is another tube's, and end
-            // contours sought in it would stack inside the solid (the smoke at iso 0.1: walls
-            // capped at unresolved pieces ran 8 end contours, 16 voxels, into the blob, and the
-            // mesh's volume was 40 times the isosurface's); the contour meets the other side's
-            // halfway instead, under a flat cap.
-            const TubeEnd& end = top ? tube.top : tube.bottom;
-            if (end.goesOn) meetHalfway(tube, top);
-            if (end.joined() || end.goesOn) continue;
-            for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
+    // Holes first: a wall whose end plane holds a hole that stays open past it (no lid found)
+    // is that hole's rim, whatever its own end does at its central point.
+    for (const bool holes : {true, false})
+        for (Tube& tube : mTubes) {
+            if (tube.hole != holes) continue;
+            for (const bool top : {false, true}) {
+                // Where the object goes on, the region past the plane is another tube's, and end
+                // contours sought in it would stack inside the solid (the smoke at iso 0.1: walls
+                // capped at unresolved pieces ran 8 end contours, 16 voxels, into the blob, and the
+                // mesh's volume was 40 times the isosurface's); the contour meets the other side's
+                // halfway instead, under a flat cap.
+                const TubeEnd& end = top ? tube.top : tube.bottom;
+                if (end.goesOn) meetHalfway(tube, top);
+                if (end.joined() || end.goesOn) continue;
+                const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
+                if (!holes && std::any_of(mTubes.begin(), mTubes.end(), rim)) continue;
+                for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
+                }
             }
         }
-    }
     // A wall's end that the axis through its central point does not meet and no rim joins (a
     // block around cavities, whose centre lies in them) is sought from points all over it.
     for (Tube& tube : mTubes) {
