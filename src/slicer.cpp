@@ -185,7 +185,7 @@ struct SlicePlane::Impl {
         std::vector<double> upper(count);
         readVoxelPlane(w0 + 1, lo, hi, upper.data());
         for (std::size_t k = 0; k < count; ++k) image[k] += frac * (upper[k] - image[k]);
-        showBridges(lower, upper);
+        showContacts(lower, upper);
     }
 
     // Voxel plane wi's signed values over the pixels [lo, hi), row-major, read from the leaf
@@ -227,7 +227,7 @@ struct SlicePlane::Impl {
     //   both are made as far outside as their outside voxels are. (Barely outside, they made holes
     //   of no area, which the slices drop; parting such pixels where neither voxel is enclosed, and
     //   the face only decides which side closes a loop, lost components along x and z.)
-    void showBridges(const std::vector<double>& low, const std::vector<double>& high)
+    void showContacts(const std::vector<double>& low, const std::vector<double>& high)
     {
         auto at = [&](const glm::ivec2& q) { return static_cast<std::size_t>(q.y) * imageWidth + q.x; };
         auto inside = [&](int plane, const glm::ivec2& q) {
