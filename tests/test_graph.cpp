@@ -446,12 +446,14 @@ struct FogContact {
     int euler, components;
 };
 
-// Every level of `volume`'s mesh sliced along `axis`: closed, manifold and oriented, with
-// `reference`'s Euler characteristic and components.
-void expectEveryLevelAs(const Volume& volume, Axis axis, const Topology& reference)
+// Every level of `volume`'s mesh sliced along `axis`, planes `spacing` voxels apart: closed,
+// manifold and oriented, with `reference`'s Euler characteristic and components.
+void expectEveryLevelAs(const Volume& volume, Axis axis, const Topology& reference,
+                        double spacing = SliceOptions{}.spacingVoxels)
 {
     MeshOptions options;
     options.slicing.axis = axis;
+    options.slicing.spacingVoxels = spacing;
     const Reconstruction reconstruction(volume, options);
     for (int level = 0; level < reconstruction.levelCount(); ++level) {
         const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
@@ -710,16 +712,7 @@ TEST(Graph, AVoidThatVolumeToMeshOpensAcrossAVoxelEdgeOpensBetweenVoxelPlanes)
     const Topology reference = checkTopology(isosurface(volume, 0.0));
     ASSERT_EQ(reference.components, 1); // else volumeToMesh keeps the void
     ASSERT_EQ(reference.euler, 2);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    options.slicing.spacingVoxels = 0.5; // a plane at z = 6.5
-    const Reconstruction reconstruction(volume, options);
-    for (int level = 0; level < reconstruction.levelCount(); ++level) {
-        const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
-        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
-        EXPECT_EQ(t.euler, reference.euler) << "level " << level;
-        EXPECT_EQ(t.components, reference.components) << "level " << level;
-    }
+    expectEveryLevelAs(volume, Axis::Z, reference, 0.5); // a plane at z = 6.5
 }
 
 // A block of fog cut by the grid's top, z = 15, with a dimple two voxels deep in that face: the
