@@ -59,15 +59,16 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
         hi = glm::max(hi, p);
     }
     // Pixel centres, or every k-th one in a large loop: probes far enough apart to be cheap,
-    // near enough to catch a twisted end's corner (a voxel or two wide).
+    // near enough to catch a twisted end's corner (a voxel or two wide). Not the cells' centres
+    // between them: those average four pixels, and miss a speck a pixel wide.
     constexpr double kProbesPerSide = 16.0;
     const double step = std::max(1.0, std::ceil(std::max(hi.x - lo.x, hi.y - lo.y) / kProbesPerSide));
     // Every probe marches; only those whose march went farthest are bisected, as a probe that
     // left the region a sample sooner ends at least that much nearer.
     int farthest = 0;
     std::vector<glm::dvec2> leaders;
-    for (double y = std::floor(lo.y) + 0.5; y < hi.y; y += step) {
-        for (double x = std::floor(lo.x) + 0.5; x < hi.x; x += step) {
+    for (double y = std::ceil(lo.y); y < hi.y; y += step) {
+        for (double x = std::ceil(lo.x); x < hi.x; x += step) {
             const glm::dvec2 probe(x, y);
             if (!encloses(loop, probe)) continue;
             const int k = apexStep(plane, probe, direction, reach, sign);

@@ -1172,8 +1172,23 @@ void Reconstruction::closeEnds()
             end.fan = !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
         }
     }
-    // A lone contour closed flat on both sides would get the same triangles twice: it encloses
-    // nothing, so it is dropped (and counted) rather than meshed as a flat pillow.
+    // A lone contour closed flat on both sides would get the same triangles twice. It is a speck
+    // within a voxel of one plane (the smoke at iso 0.1: 3-voxel blobs and voids in one voxel
+    // plane, L-shaped, so no point of theirs sees all of them), and the isosurface has it as a
+    // component of its own: where either end found how far it reaches, that end fans round its
+    // apex anyway. A fold there is smaller than the speck; leaving it out costs a component.
+    for (Tube& tube : mTubes) {
+        if (tube.members.size() != 1 || tube.bottom.fan || tube.top.fan || tube.bottom.joined() || tube.top.joined())
+            continue;
+        const double w = mPositions[tube.members.front().first];
+        const auto reach = [&](const TubeEnd& end) {
+            return end.hasApex ? std::abs(end.apexIndex[mPlan.axis] - w) : -1.0;
+        };
+        TubeEnd& farther = reach(tube.top) >= reach(tube.bottom) ? tube.top : tube.bottom;
+        farther.fan = farther.hasApex;
+    }
+    // Any lone contour left without a fan encloses nothing that was found: it is dropped (and
+    // counted) rather than meshed as a flat pillow.
     const auto pillow = [](const Tube& t) {
         return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined();
     };

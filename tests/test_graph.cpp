@@ -730,13 +730,37 @@ TEST(Graph, AHoleOpenPastTheLastPlaneIsItsWallsRim)
     expectEveryLevelAs(volume, Axis::Z, reference);
 }
 
+// A speck in one voxel plane: three voxels in an L, barely past the isovalue (0.41 and 0.39 at
+// 0.4), so the isosurface wraps them a fortieth of a voxel thick. Its contour is alone in its plane
+// and no point of it sees all of it: not its central point (outside the L), nor any cell centre (an
+// average with the voxels round it). Both ends now reach past the plane from the voxels
+// themselves, and one fans round its apex. (The slices dropped such contours as flat pillows: a
+// component fewer, Euler characteristic 2 less; the smoke at iso 0.1 lost five so, README.)
+TEST(Graph, ASpeckInOneVoxelPlaneIsAComponentOfItsOwn)
+{
+    const std::pair<glm::ivec3, glm::ivec3> block{{2, 2, 2}, {8, 8, 12}};
+    for (const float speck : {0.41f, 0.39f}) {
+        SCOPED_TRACE(speck);
+        // A blob beside the block, or a void in it.
+        const glm::ivec3 corner = speck > 0.4f ? glm::ivec3{11, 11, 7} : glm::ivec3{4, 4, 7};
+        const Volume volume = densityBlocks(
+            {block}, {{corner, speck}, {corner + glm::ivec3{1, 0, 0}, speck}, {corner + glm::ivec3{1, 1, 0}, speck}},
+            0.4);
+        const Topology reference = checkTopology(isosurface(volume, 0.0));
+        ASSERT_EQ(reference.components, 2); // else volumeToMesh no longer keeps the speck
+        ASSERT_EQ(reference.euler, 4);
+        expectEveryLevelAs(volume, Axis::Z, reference, 1.0); // a plane at z = 7
+    }
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,
 // has nothing capped and the isosurface's volume. (Its components
-// are not the isosurface's: 38 against 35. The extra ones are holes in the crop's last plane, open
+// are not the isosurface's: 39 against 35. The extra ones are holes in the crop's last plane, open
 // past it, that are closed flat under their wall's end: a wall is the rim of one hole only
-// (AHoleOpenPastTheLastPlaneIsItsWallsRim; 40 before that).)
+// (AHoleOpenPastTheLastPlaneIsItsWallsRim; 40 before that). One of them, a lone contour, was
+// dropped as a flat pillow until specks were kept (ASpeckInOneVoxelPlaneIsAComponentOfItsOwn): 38.)
 TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
 {
     test::TempDir dir;
@@ -780,6 +804,19 @@ TEST(Graph, TheSmokeHasTheIsosurfaceTopology)
         SCOPED_TRACE(static_cast<int>(axis));
         expectTheSmokesTopology(axis);
     }
+}
+
+// At iso 0.1 (data/README.md's value) the smoke is its whole plume: one blob full of channels,
+// 1314 small components round it (volumeToMesh's count), and the mesh has the isosurface's
+// topology at every level (Euler characteristic 1174). Five of those components are specks in one voxel plane between the
+// planes of the default spacing's plan (ASpeckInOneVoxelPlaneIsAComponentOfItsOwn), which the
+// slices dropped: 1164 and 1310.
+TEST(Graph, TheSmokesWholePlumeHasTheIsosurfaceTopology)
+{
+    VolumeOptions read;
+    read.iso = 0.1;
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"), read);
+    expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
 }
 
 namespace {
