@@ -58,25 +58,29 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
         lo = glm::min(lo, p);
         hi = glm::max(hi, p);
     }
-    // Pixel centres, or every k-th one in a large loop: probes far enough apart to be cheap,
-    // near enough to catch a twisted end's corner (a voxel or two wide). Not the cells' centres
-    // between them: those average four pixels, and miss a speck a pixel wide.
+    // Cells' centres (between pixels), or every k-th one in a large loop: probes far enough apart
+    // to be cheap, near enough to catch a twisted end's corner (a voxel or two wide). Where none
+    // is in the region, the pixels' own centres: a cell's centre averages four pixels and misses
+    // a speck a pixel wide (three voxels in an L, barely past the isovalue).
     constexpr double kProbesPerSide = 16.0;
     const double step = std::max(1.0, std::ceil(std::max(hi.x - lo.x, hi.y - lo.y) / kProbesPerSide));
     // Every probe marches; only those whose march went farthest are bisected, as a probe that
     // left the region a sample sooner ends at least that much nearer.
     int farthest = 0;
     std::vector<glm::dvec2> leaders;
-    for (double y = std::ceil(lo.y); y < hi.y; y += step) {
-        for (double x = std::ceil(lo.x); x < hi.x; x += step) {
-            const glm::dvec2 probe(x, y);
-            if (!encloses(loop, probe)) continue;
-            const int k = apexStep(plane, probe, direction, reach, sign);
-            if (k <= 0 || k < farthest) continue;
-            if (k > farthest) leaders.clear();
-            farthest = k;
-            leaders.push_back(probe);
+    for (const double offset : {0.5, 0.0}) {
+        for (double y = std::floor(lo.y) + offset; y < hi.y; y += step) {
+            for (double x = std::floor(lo.x) + offset; x < hi.x; x += step) {
+                const glm::dvec2 probe(x, y);
+                if (!encloses(loop, probe)) continue;
+                const int k = apexStep(plane, probe, direction, reach, sign);
+                if (k <= 0 || k < farthest) continue;
+                if (k > farthest) leaders.clear();
+                farthest = k;
+                leaders.push_back(probe);
+            }
         }
+        if (!leaders.empty()) break;
     }
     for (std::size_t i = 0; i < leaders.size(); ++i) {
         const double wProbe = apexBetween(plane, leaders[i], direction, farthest, sign);

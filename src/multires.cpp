@@ -780,7 +780,7 @@ void Reconstruction::composeParts(Junction& junction) const
     }
 }
 
-void Reconstruction::centreParts()
+void Reconstruction::centreParts(std::size_t first)
 {
     // A part is cast with its partner's rays from the partner's central point, so that ray k of
     // both meets the same side of the branch; the part must run counterclockwise and wind once
@@ -793,8 +793,9 @@ void Reconstruction::centreParts()
     // still not wound once around the centre is tiled by the minimum-area tiler (assemble).
     constexpr double kClearance = 0.25;
     std::map<std::pair<int, int>, std::vector<Junction::Part*>> partsOf;
-    for (Junction& junction : mJunctions)
-        for (std::size_t k = 0; k < junction.many.size(); ++k) partsOf[junction.many[k]].push_back(&junction.parts[k]);
+    for (std::size_t j = first; j < mJunctions.size(); ++j)
+        for (std::size_t k = 0; k < mJunctions[j].many.size(); ++k)
+            partsOf[mJunctions[j].many[k]].push_back(&mJunctions[j].parts[k]);
     for (const auto& [loop, parts] : partsOf) {
         SliceLoop& partner = mLoops[loop.first][loop.second];
         std::vector<Junction::Part*> counterclockwise; // the others wind around no point
@@ -1216,30 +1217,74 @@ void Reconstruction::joinRims()
 {
     // Hollow pipes: where a hole tube ends in the same plane as the outer tube around it, the two
     // end contours are joined by an annulus, the pipe's rim, instead of closing each wall by a
-    // cap of its own (two caps over the hollow, far from any surface). Nearest hole first.
+    // cap of its own (two caps over the hollow, far from any surface). A wall around several such
+    // holes (dimples in a face the grid's box cuts) is the rim of them all.
+    struct Rim {
+        int wall;
+        bool top;
+        std::vector<int> holes;
+    };
+    std::vector<Rim> rims; // in the order of their first hole, as the annuli were always made
     for (int h = 0; h < static_cast<int>(mTubes.size()); ++h) {
         if (!mTubes[h].hole) continue;
         for (const bool top : {false, true}) {
             if ((top ? mTubes[h].top : mTubes[h].bottom).joined()) continue;
-            const std::pair<int, int> holeEnd = top ? mTubes[h].members.back() : mTubes[h].members.front();
-            const int hs = holeEnd.first, hl = holeEnd.second; // named, not bound: lambdas below use them
-            const glm::dvec2 holeCenter = mLoops[hs][hl].view.center;
-            auto endLoop = [&](int o) -> const SliceLoop& {
+            // The innermost wall around its boundary: a pipe inside a pipe, both ending here, is
+            // two rims (the inner wall may enclose the outer hole's central point, not its edge).
+            const auto [hs, hl] = top ? mTubes[h].members.back() : mTubes[h].members.front();
+            const glm::dvec2 edge = mLoops[hs][hl].loop.points.front();
+            int best = -1;
+            double bestArea = 0.0;
+            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
+                if (!formRim(mTubes[o], mTubes[h], top)) continue;
                 const auto [os, ol] = top ? mTubes[o].members.back() : mTubes[o].members.front();
-                return mLoops[os][ol];
-            };
-            const int best = nearest(
-                static_cast<int>(mTubes.size()), holeCenter, [&](int o) { return endLoop(o).view.center; },
-                [&](int o) { return formRim(mTubes[o], mTubes[h], top); });
+                if (!encloses(mLoops[os][ol].loop, edge)) continue;
+                const double area = std::abs(polygonArea(mLoops[os][ol].view.polygon));
+                if (best >= 0 && area >= bestArea) continue;
+                best = o;
+                bestArea = area;
+            }
             if (best < 0) continue;
-            (top ? mTubes[best].top : mTubes[best].bottom).annulus = h;
-            (top ? mTubes[h].top : mTubes[h].bottom).annulus = best;
-            ++mStats.annularCaps;
-            const double w = mPositions[(top ? mTubes[h].members.back() : mTubes[h].members.front()).first];
-            const double room = (top ? 1.0 : -1.0) * ((top ? mTubes[h].top : mTubes[h].bottom).wBound - w);
-            addRimContours(mTubes[best], mTubes[h], top, std::min(endReach(mOptions), room), kEndInset);
+            const auto same = [&](const Rim& r) { return r.wall == best && r.top == top; };
+            const auto rim = std::find_if(rims.begin(), rims.end(), same);
+            if (rim != rims.end())
+                rim->holes.push_back(h);
+            else
+                rims.push_back({best, top, {h}});
         }
     }
+    for (const auto& [wall, top, holes] : rims) {
+        if (holes.size() > 1 && joinRimFace(wall, holes, top)) continue;
+        const int h = holes.front();
+        (top ? mTubes[wall].top : mTubes[wall].bottom).annulus = h;
+        (top ? mTubes[h].top : mTubes[h].bottom).annulus = wall;
+        ++mStats.annularCaps;
+        const double w = mPositions[(top ? mTubes[h].members.back() : mTubes[h].members.front()).first];
+        const double room = (top ? 1.0 : -1.0) * ((top ? mTubes[h].top : mTubes[h].bottom).wBound - w);
+        addRimContours(mTubes[wall], mTubes[h], top, std::min(endReach(mOptions), room), kEndInset);
+    }
+}
+
+bool Reconstruction::joinRimFace(int wall, const std::vector<int>& holes, bool top)
+{
+    // The slab's Rim junction (makeJunction) with no slab: the wall's polygon split into one arc
+    // per hole through a hub, each arc tiled to its hole, in the plane.
+    const auto endOf = [&](const Tube& tube) { return top ? tube.members.back() : tube.members.front(); };
+    Junction junction;
+    junction.kind = EventKind::Rim;
+    junction.top = top;
+    junction.single = endOf(mTubes[wall]);
+    for (int h : holes) junction.many.push_back(endOf(mTubes[h]));
+    if (!splitJunction(junction)) return false;
+    const int id = static_cast<int>(mJunctions.size());
+    (top ? mTubes[wall].top : mTubes[wall].bottom).junction = id;
+    for (int h : holes) (top ? mTubes[h].top : mTubes[h].bottom).junction = id;
+    ++mStats.rims;
+    mStats.keyholes += junction.keyhole.open() ? 1 : 0;
+    mStats.saddles += static_cast<int>(holes.size()) - 1; // a face with k holes: Euler 1 - k
+    mJunctions.push_back(std::move(junction));
+    centreParts(static_cast<std::size_t>(id));
+    return true;
 }
 
 void Reconstruction::groupRays()

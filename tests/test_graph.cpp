@@ -446,21 +446,26 @@ struct FogContact {
     int euler, components;
 };
 
-// Every level of `volume`'s mesh sliced along `axis`, planes `spacing` voxels apart: closed,
-// manifold and oriented, with `reference`'s Euler characteristic and components.
-void expectEveryLevelAs(const Volume& volume, Axis axis, const Topology& reference,
-                        double spacing = SliceOptions{}.spacingVoxels)
+// Every level of `reconstruction`: closed, manifold and oriented, with `reference`'s Euler
+// characteristic and components.
+void expectEveryLevelAs(const Reconstruction& reconstruction, const Topology& reference)
 {
-    MeshOptions options;
-    options.slicing.axis = axis;
-    options.slicing.spacingVoxels = spacing;
-    const Reconstruction reconstruction(volume, options);
     for (int level = 0; level < reconstruction.levelCount(); ++level) {
         const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
         EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;
         EXPECT_EQ(t.euler, reference.euler) << "level " << level;
         EXPECT_EQ(t.components, reference.components) << "level " << level;
     }
+}
+
+// The same, for `volume`'s mesh sliced along `axis`, planes `spacing` voxels apart.
+void expectEveryLevelAs(const Volume& volume, Axis axis, const Topology& reference,
+                        double spacing = SliceOptions{}.spacingVoxels)
+{
+    MeshOptions options;
+    options.slicing.axis = axis;
+    options.slicing.spacingVoxels = spacing;
+    expectEveryLevelAs(Reconstruction(volume, options), reference);
 }
 
 // Every level of the contact's fog at iso 0.5 against volumeToMesh's isosurface, whose Euler
@@ -730,6 +735,49 @@ TEST(Graph, AHoleOpenPastTheLastPlaneIsItsWallsRim)
     expectEveryLevelAs(volume, Axis::Z, reference);
 }
 
+// The block of AHoleOpenPastTheLastPlaneIsItsWallsRim with two and with three dimples in its cut
+// face: the wall is the rim of them all, a face with that many holes in the last plane (the slab's
+// Rim junction, with no slab). An annulus joined one hole only, and the others were closed flat
+// under the wall's end, voids of their own: 2 and 3 components, Euler characteristic 4 and 6.
+TEST(Graph, AWallIsTheRimOfEveryHoleOpenPastTheLastPlane)
+{
+    for (const int dimples : {2, 3}) {
+        SCOPED_TRACE(dimples);
+        std::vector<std::pair<glm::ivec3, float>> holes;
+        for (int d = 0; d < dimples; ++d)
+            for (const int z : {14, 15}) holes.push_back({{4 + 3 * d, 4 + 2 * d, z}, 0.0f});
+        const Volume volume = densityBlocks({{{2, 2, 2}, {12, 12, 15}}}, holes, 0.4);
+        const Topology reference = checkTopology(isosurface(volume, 0.0));
+        ASSERT_EQ(reference.components, 1);
+        ASSERT_EQ(reference.euler, 2);
+        expectEveryLevelAs(volume, Axis::Z, reference);
+    }
+}
+
+// A cup cut by the grid's top, z = 15, and a smaller cup standing free in its cavity, both open
+// at that face: the last plane holds the outer wall and the cavity, and inside them the inner
+// wall and its hollow, all centred alike. Each hole is its own wall's rim, the cavity the outer
+// wall's and the hollow the inner wall's, though the outer wall encloses both holes' centres and
+// the inner wall the cavity's. (Joining each hole to the wall nearest its central point, grouped
+// per wall, gave the outer wall both holes: 3 components, Euler characteristic 6.)
+TEST(Graph, NestedRimsAtTheLastPlaneEachJoinTheirOwnWall)
+{
+    std::vector<std::pair<glm::ivec3, float>> carved;
+    const auto fill = [&](int lo, int hi, int zLo, float value) {
+        for (int x = lo; x <= hi; ++x)
+            for (int y = lo; y <= hi; ++y)
+                for (int z = zLo; z <= 15; ++z) carved.push_back({{x, y, z}, value});
+    };
+    fill(4, 11, 10, 0.0f); // the cavity
+    fill(6, 9, 11, 1.0f);  // the inner cup, a voxel clear of the cavity's floor
+    fill(7, 8, 13, 0.0f);  // its hollow
+    const Volume volume = densityBlocks({{{2, 2, 2}, {13, 13, 15}}}, carved, 0.4);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    ASSERT_EQ(reference.components, 2);
+    ASSERT_EQ(reference.euler, 4);
+    expectEveryLevelAs(volume, Axis::Z, reference);
+}
+
 // A speck in one voxel plane: three voxels in an L, barely past the isovalue (0.41 and 0.39 at
 // 0.4), so the isosurface wraps them a fortieth of a voxel thick. Its contour is alone in its plane
 // and no point of it sees all of it: not its central point (outside the L), nor any cell centre (an
@@ -756,11 +804,10 @@ TEST(Graph, ASpeckInOneVoxelPlaneIsAComponentOfItsOwn)
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,
-// has nothing capped and the isosurface's volume. (Its components
-// are not the isosurface's: 39 against 35. The extra ones are holes in the crop's last plane, open
-// past it, that are closed flat under their wall's end: a wall is the rim of one hole only
-// (AHoleOpenPastTheLastPlaneIsItsWallsRim; 40 before that). One of them, a lone contour, was
-// dropped as a flat pillow until specks were kept (ASpeckInOneVoxelPlaneIsAComponentOfItsOwn): 38.)
+// has nothing capped, the isosurface's volume, and its topology at every level. (It had 40
+// components against 35 while holes in the crop's last plane, open past it, were closed flat
+// under their wall's end, and 38 while a wall was the rim of one hole only
+// (AWallIsTheRimOfEveryHoleOpenPastTheLastPlane).)
 TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
 {
     test::TempDir dir;
@@ -773,6 +820,7 @@ TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
     ASSERT_GT(reconstruction.stats().patches, 0); // else the crop no longer shows the case
     EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
     expectTheIsosurfacesVolume(volume, reconstruction, false);
+    expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
 
 namespace {
@@ -808,9 +856,9 @@ TEST(Graph, TheSmokeHasTheIsosurfaceTopology)
 
 // At iso 0.1 (data/README.md's value) the smoke is its whole plume: one blob full of channels,
 // 1314 small components round it (volumeToMesh's count), and the mesh has the isosurface's
-// topology at every level (Euler characteristic 1174). Five of those components are specks in one voxel plane between the
-// planes of the default spacing's plan (ASpeckInOneVoxelPlaneIsAComponentOfItsOwn), which the
-// slices dropped: 1164 and 1310.
+// topology at every level (Euler characteristic 1174). Five of those components are specks in
+// one voxel plane, each a lone contour in a plane of the plan, which the slices dropped as flat
+// pillows (ASpeckInOneVoxelPlaneIsAComponentOfItsOwn): 1164 and 1310.
 TEST(Graph, TheSmokesWholePlumeHasTheIsosurfaceTopology)
 {
     VolumeOptions read;

@@ -372,11 +372,13 @@ TEST(Quality, NoNeedlesOnTheRealData)
 TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
 {
     // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy fog,
-    // keeps largest aspect ratios 137, 177, 320 and 320 at levels 0 to 3, and one triangle of no
-    // area at levels 2 and 3 (at level 2 alone before planes between voxel planes opened the voids
-    // volumeToMesh opens; README, Known gaps: at a patch a sixteenth of a voxel thin); with its pieces
-    // capped contour by contour, 945, 1008, 320 and 320 (444 at level 3 before
-    // specks collapsed; 154 and 177 at levels 0 and 1 before its keyholes: the worst now lie at a
+    // keeps largest aspect ratios 95, 689, 689 and 689 at levels 0 to 3 (137, 177, 320 and 320
+    // before the ends of loops too thin for any cell's centre found their reach from their
+    // pixels: the 689 has an edge of 0.011 voxel, one end a vertex of level 0, that no collapse
+    // took), and one triangle of no area at levels 2 and 3 (at level 2 alone before planes between
+    // voxel planes opened the voids volumeToMesh opens; README, Known gaps: at a patch a sixteenth
+    // of a voxel thin); with its pieces capped contour by contour, 945, 1008, 320 and 320 (444 at
+    // level 3 before specks collapsed; 154 and 177 at levels 0 and 1 before its keyholes: the worst now lie at a
     // keyhole's fork, where a speck of a branch owns a sliver of the contour that the minimum-area
     // tiler closes; 282, 756 and 1498 at levels 1 to 3, and 9, 8 and 8 triangles of no area, before
     // its waists; the counts below are from then). At level 0, four needles over 100 have a short

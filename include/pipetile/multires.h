@@ -247,8 +247,9 @@ private:
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
     void followCentres();
-    /// Each part's view from its partner's central point, the partner moved where need be.
-    void centreParts();
+    /// Each part's view from its partner's central point, the partner moved where need be; for
+    /// the junctions from `first` on.
+    void centreParts(std::size_t first = 0);
     /// The central point of `loop` that follows `before`'s along their tube (see followCentres);
     /// `followed` (out) says whether it is `before`'s moved with the section, not a clear point
     /// found near it. `spacing`, the planes' distance apart, tells a section that changed from
@@ -280,8 +281,12 @@ private:
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
     /// false if it added none.
     bool addEndContour(Tube& tube, bool top, bool probeAnyway);
-    /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus.
+    /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus;
+    /// a wall around several such holes, by a face with those holes (joinRimFace).
     void joinRims();
+    /// Joins the wall tube's end and its holes' ends on that side by a Rim junction in their
+    /// plane; false (nothing changed) if the wall's polygon does not split among them.
+    bool joinRimFace(int wall, const std::vector<int>& holes, bool top);
     /// Whether the wall `outer` and `hole` end in one plane on that side as a pipe's open rim.
     bool formRim(const Tube& outer, const Tube& hole, bool top) const;
     /// The contour on plane w that continues `member` past its tube's end, centred as a band to
