@@ -549,6 +549,7 @@ void Reconstruction::resolveEvents()
                 continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
+            if (piece.kind == EventKind::Rim && !joins) markAroundWall(slab, piece, tubeOf);
             if (joins || piece.kind == EventKind::Unresolved) {
                 for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.goesOn = true;
                 for (int l : piece.above) mTubes[tubeOf[slab.above][l]].bottom.goesOn = true;
@@ -566,6 +567,23 @@ void Reconstruction::resolveEvents()
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
     mStats.eventEuler += static_cast<long long>(mLoops[last].size());
+}
+
+void Reconstruction::markAroundWall(const ContourGraph::Slab& slab, const SlabPiece& piece,
+                                    const std::vector<std::vector<int>>& tubeOf)
+{
+    // A wall and a hole that begin or end together, the hole around the wall: the floor of a
+    // cavity that a post stands in (or its roof). The hole's region ends past the plane and the
+    // wall's goes on, the other way round from a pipe's rim, which closeEnds finds by their apexes;
+    // here the slab says so, and neither end takes end contours that would part them.
+    const bool top = piece.above.empty();
+    const int s = top ? slab.below : slab.above;
+    const std::vector<int>& loops = top ? piece.below : piece.above;
+    const SliceLoop &first = mLoops[s][loops[0]], &second = mLoops[s][loops[1]];
+    const SliceLoop& hole = first.loop.hole() ? first : second;
+    const SliceLoop& wall = first.loop.hole() ? second : first;
+    if (wall.loop.points.empty() || !encloses(hole.loop, wall.loop.points.front())) return;
+    for (int l : loops) (top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom).aroundWall = true;
 }
 
 bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const
@@ -1139,7 +1157,7 @@ void Reconstruction::closeEnds()
                 // halfway instead, under a flat cap.
                 const TubeEnd& end = top ? tube.top : tube.bottom;
                 if (end.goesOn) meetHalfway(tube, top);
-                if (end.joined() || end.goesOn) continue;
+                if (end.joined() || end.goesOn || end.aroundWall) continue;
                 const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
                 if (!holes && std::any_of(mTubes.begin(), mTubes.end(), rim)) continue;
                 for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
@@ -1152,7 +1170,7 @@ void Reconstruction::closeEnds()
         for (const bool top : {false, true}) {
             const TubeEnd& end = top ? tube.top : tube.bottom;
             const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
-            if (tube.hole || end.hasApex || end.joined() || end.goesOn ||
+            if (tube.hole || end.hasApex || end.joined() || end.goesOn || end.aroundWall ||
                 std::any_of(mTubes.begin(), mTubes.end(), rim))
                 continue;
             for (int added = 0; added < kMostEndContours && addEndContour(tube, top, true); ++added) {
@@ -1179,7 +1197,8 @@ void Reconstruction::closeEnds()
     // component of its own: where either end found how far it reaches, that end fans round its
     // apex anyway. A fold there is smaller than the speck; leaving it out costs a component.
     for (Tube& tube : mTubes) {
-        if (tube.members.size() != 1 || tube.bottom.fan || tube.top.fan || tube.bottom.joined() || tube.top.joined())
+        if (tube.members.size() != 1 || tube.bottom.fan || tube.top.fan || tube.bottom.joined() || tube.top.joined() ||
+            tube.bottom.aroundWall || tube.top.aroundWall)
             continue;
         const double w = mPositions[tube.members.front().first];
         const auto reach = [&](const TubeEnd& end) {
@@ -1191,7 +1210,8 @@ void Reconstruction::closeEnds()
     // Any lone contour left without a fan encloses nothing that was found: it is dropped (and
     // counted) rather than meshed as a flat pillow.
     const auto pillow = [](const Tube& t) {
-        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined();
+        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined() &&
+               !t.bottom.aroundWall && !t.top.aroundWall;
     };
     mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
     mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
@@ -1209,7 +1229,7 @@ bool Reconstruction::formRim(const Tube& outer, const Tube& hole, bool top) cons
     const auto [hs, hl] = top ? hole.members.back() : hole.members.front();
     // A hole whose outside ends just past it (a cavity's lid) is no pipe's opening.
     return !outer.hole && hole.hole && !outerEnd.hasApex && !holeEnd.hasApex && outerEnd.annulus < 0 &&
-           !outerEnd.joined() && !holeEnd.joined() && os == hs &&
+           !outerEnd.joined() && !holeEnd.joined() && !outerEnd.aroundWall && !holeEnd.aroundWall && os == hs &&
            encloses(mLoops[os][ol].loop, mLoops[hs][hl].view.center);
 }
 
@@ -1253,6 +1273,25 @@ void Reconstruction::joinRims()
                 rims.push_back({best, top, {h}});
         }
     }
+    // A hole around a wall (markAroundWall): the wall in its plane that it encloses.
+    for (int h = 0; h < static_cast<int>(mTubes.size()); ++h)
+        for (const bool top : {false, true}) {
+            const auto endOf = [&](int t) { return top ? mTubes[t].members.back() : mTubes[t].members.front(); };
+            TubeEnd& holeEnd = top ? mTubes[h].top : mTubes[h].bottom;
+            if (!mTubes[h].hole || !holeEnd.aroundWall) continue;
+            const auto [hs, hl] = endOf(h);
+            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
+                TubeEnd& wallEnd = top ? mTubes[o].top : mTubes[o].bottom;
+                const auto [os, ol] = endOf(o);
+                if (mTubes[o].hole || !wallEnd.aroundWall || wallEnd.annulus >= 0 || os != hs ||
+                    !encloses(mLoops[hs][hl].loop, mLoops[os][ol].loop.points.front()))
+                    continue;
+                wallEnd.annulus = h;
+                holeEnd.annulus = o;
+                ++mStats.annularCaps;
+                break;
+            }
+        }
     for (const auto& [wall, top, holes] : rims) {
         if (holes.size() > 1 && joinRimFace(wall, holes, top)) continue;
         const int h = holes.front();
@@ -2085,7 +2124,8 @@ ContourTree Reconstruction::Assembly::treeOf(std::size_t i) const
 // closed flat by ear clipping, which follows C-shaped and folded sections.
 // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
 // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
-// inward, so it faces +w, outward at the top. The hole's own end gets nothing. An end at a
+// inward, so it faces +w, outward at the top. Where the hole lies around the wall (a cavity's
+// floor around a post) it turns outward, so it faces -w at the top, as such a floor must. The hole's own end gets nothing. An end at a
 // junction gets nothing either: the junction's triangles close it.
 void Reconstruction::Assembly::emitCap(std::size_t self, bool top)
 {

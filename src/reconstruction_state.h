@@ -35,6 +35,8 @@ struct Reconstruction::TubeEnd {
                                // plane, it joins by an annulus (a hollow pipe's rim); a hole
                                // tube's end: the outer tube that closes it so. -1: a cap
     int patch = -1;            // the patch this end joins (no cap); -1: none
+    bool aroundWall = false;   // a rim whose hole lies around its wall (a post standing in a
+                               // cavity, the slab says): no end contours; joinRims pairs it
     bool goesOn = false;       // the object goes on past it: a piece of the slab that no
                                // construction resolved (its loops are capped one by one)
     double wBound = 0.0;       // how far its end contours and apex may go (closeEnds)

@@ -778,6 +778,27 @@ TEST(Graph, NestedRimsAtTheLastPlaneEachJoinTheirOwnWall)
     expectEveryLevelAs(volume, Axis::Z, reference);
 }
 
+// A closed cavity in a block, with a post standing on its floor: where the cavity begins, its hole
+// and the post's wall begin together, the hole around the wall, and the cavity's floor joins them
+// (a rim the other way round from a pipe's: the hole's region ends past the plane, the wall's goes
+// on). Each was capped on its own, so the post was closed off from the block under it: 3
+// components, Euler characteristic 6, against the isosurface's block and void (2 and 4).
+TEST(Graph, APostStandingInACavityJoinsItsFloor)
+{
+    std::vector<std::pair<glm::ivec3, float>> carved;
+    for (int x = 4; x <= 11; ++x)
+        for (int y = 4; y <= 11; ++y)
+            for (int z = 6; z <= 11; ++z) {
+                const bool post = x >= 6 && x <= 9 && y >= 6 && y <= 9 && z <= 8;
+                carved.push_back({{x, y, z}, post ? 1.0f : 0.0f});
+            }
+    const Volume volume = densityBlocks({{{2, 2, 2}, {13, 13, 13}}}, carved, 0.4);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    ASSERT_EQ(reference.components, 2);
+    ASSERT_EQ(reference.euler, 4);
+    expectEveryLevelAs(volume, Axis::Z, reference);
+}
+
 // A speck in one voxel plane: three voxels in an L, barely past the isovalue (0.41 and 0.39 at
 // 0.4), so the isosurface wraps them a fortieth of a voxel thick. Its contour is alone in its plane
 // and no point of it sees all of it: not its central point (outside the L), nor any cell centre (an

@@ -234,6 +234,9 @@ private:
     void traceSlices();
     void correspond();
     void resolveEvents();
+    /// Marks a Rim piece's wall and hole ends (aroundWall) where the hole lies around the wall.
+    void markAroundWall(const ContourGraph::Slab& slab, const SlabPiece& piece,
+                        const std::vector<std::vector<int>>& tubeOf);
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     /// An n:m piece of walls (n, m >= 2) as a merge into a waist contour in the slab's middle
     /// plane (contour.h, waistAround), then a fork out of it: a genus-0 piece with n + m loops,
