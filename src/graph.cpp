@@ -1055,6 +1055,14 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     graph.order.push_back(0);
     for (const ContourGraph::Slab& slab : graph.slabs) graph.order.push_back(slab.above);
     if (original == 0) graph.order.clear();
+    if (!graph.order.empty()) {
+        PlaneLoops before, after; // empty space: every voxel plane past the active box is outside
+        before.w = volume.bboxMin()[plan.axis] - 1.0;
+        after.w = volume.bboxMax()[plan.axis] + 1.0;
+        const PlaneLoops &first = planes[graph.order.front()], &last = planes[graph.order.back()];
+        if (!first.loops.empty()) graph.beforeFirst = connectThroughSlab(volume, plan, before, first);
+        if (!last.loops.empty()) graph.afterLast = connectThroughSlab(volume, plan, last, after);
+    }
     return graph;
 }
 

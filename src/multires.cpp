@@ -469,7 +469,7 @@ void Reconstruction::resolveEvents()
     const int first = mGraph.order.front(), last = mGraph.order.back();
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
-    mStats.eventEuler += static_cast<long long>(mLoops[first].size());
+    for (const SlabPiece& piece : mGraph.beforeFirst) mStats.eventEuler += piece.euler();
     // Where the cells count fewer than the pieces between two voxel planes (handles the pieces'
     // 2 - a - b misses, which no cut showed: graph.h), a piece whose patch finds handles is
     // meshed by it, whatever its kind, as long as the range still misses that many: patches
@@ -566,7 +566,7 @@ void Reconstruction::resolveEvents()
         }
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
-    mStats.eventEuler += static_cast<long long>(mLoops[last].size());
+    for (const SlabPiece& piece : mGraph.afterLast) mStats.eventEuler += piece.euler();
 }
 
 void Reconstruction::markAroundWall(const ContourGraph::Slab& slab, const SlabPiece& piece,

@@ -428,8 +428,8 @@ std::vector<EulerDifference> eulerDifferences(const EulerProfile& profile, const
         difference = cellsBelow - slabs;
         wBefore = w;
     };
-    // The first plane's loops start the surface (a disc each); each slab adds its pieces'.
-    for (const SlabPiece& p : graph.slabs.front().pieces) slabs += static_cast<long long>(p.below.size());
+    // The pieces before the first plane start the surface; each slab adds its pieces'.
+    for (const SlabPiece& p : graph.beforeFirst) slabs += p.euler();
     std::size_t layer = 0;
     for (std::size_t k = 0; k < graph.order.size(); ++k) {
         if (k > 0)
@@ -440,7 +440,7 @@ std::vector<EulerDifference> eulerDifferences(const EulerProfile& profile, const
             cells += profile.layers[layer];
         compare(w, cells);
     }
-    for (const SlabPiece& p : graph.slabs.back().pieces) slabs += static_cast<long long>(p.above.size()); // ends
+    for (const SlabPiece& p : graph.afterLast) slabs += p.euler();
     compare(none, profile.total());
     return changes;
 }

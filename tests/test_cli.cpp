@@ -194,18 +194,25 @@ TEST(Cli, WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss)
 {
     // The report carries the isosurface's Euler characteristic counted from the grid's cells (exact:
     // Validate.CountsTheIsosurfacesEulerCharacteristicFromItsCells), and the tool warns exactly when
-    // the slabs' sum differs from it. A crop of the smoke's blob at iso 0.1 cuts it open at the
-    // crop's faces, and there the counts part (54 against 40 at one level: by -2 and -12 between
-    // each face and the voxel plane next to it); the aorta's slabs see its topology.
+    // the slabs' sum differs from it. A square pipe cut by the grid's box at both ends, with a
+    // pinhole through its wall between two planes: its slabs are bands only, so the cells are not
+    // compared while the graph is built (graph.h), and the counts part (0 against -2: the pinhole
+    // is a handle); the aorta's slabs see its topology. (A crop of the smoke at iso 0.1 served
+    // here until the pieces past a cut face were labelled: 54 against 40, now 40 and 40.)
     // Where the counts part and a cut shows the handle, the graph has it (Graph.TheCellsPlaceTheHandlesTheSlabsMiss).
     TempDir dir;
-    const std::string crop = dir.path("crop.vdb");
-    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), crop, {20, 20, 20}, {60, 60, 60});
-    for (const auto& [file, parts] : {std::pair{crop, true}, std::pair{test::realData("vmtk_aorta_ls.vdb"), false}}) {
+    const std::string pipe = dir.path("pipe.vdb");
+    test::writeFogVoxelsVdb(pipe, {16, 16, 24}, [](int x, int y, int z) {
+        const auto within = [](int c, int lo, int hi) { return c >= lo && c <= hi; };
+        const bool wall = within(x, 4, 11) && within(y, 4, 11) && !(within(x, 6, 9) && within(y, 6, 9));
+        const bool pinhole = within(x, 10, 11) && y == 7 && z == 11; // planes lie at even z
+        return wall && !pinhole ? 1.0f : 0.0f;
+    });
+    for (const auto& [file, parts] : {std::pair{pipe, true}, std::pair{test::realData("vmtk_aorta_ls.vdb"), false}}) {
         SCOPED_TRACE(file);
         const std::string report = dir.path("r.json");
-        const test::CliResult r = runCli("mesh '" + file + "' -o '" + dir.path("m.ply") + "' --levels 1 --report '" +
-                                         report + "'" + (parts ? " --iso 0.1" : ""));
+        const test::CliResult r =
+            runCli("mesh '" + file + "' -o '" + dir.path("m.ply") + "' --levels 1 --report '" + report + "'");
         ASSERT_EQ(r.exitCode, 0) << r.err;
         const nlohmann::json events = readJson(report)["events"];
         const long long slabs = events["euler"].get<long long>(), cells = events["isosurface_euler"].get<long long>();

@@ -447,9 +447,10 @@ struct FogContact {
 };
 
 // Every level of `reconstruction`: closed, manifold and oriented, with `reference`'s Euler
-// characteristic and components.
+// characteristic and components; and the events' contributions add up to that characteristic.
 void expectEveryLevelAs(const Reconstruction& reconstruction, const Topology& reference)
 {
+    EXPECT_EQ(reconstruction.stats().eventEuler, reference.euler);
     for (int level = 0; level < reconstruction.levelCount(); ++level) {
         const Topology t = checkTopology(reconstruction.buildLevel(level).mesh);
         EXPECT_TRUE(t.closed() && t.manifold() && t.oriented()) << "level " << level;

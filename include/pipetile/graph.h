@@ -112,8 +112,12 @@ struct ContourGraph {
     };
     std::vector<int> order;  // plane indices by increasing w
     std::vector<Slab> slabs; // between order[k] and order[k + 1]
-    int addedPlanes = 0;     // planes added by bisection
-    int cellMatches = 0;     // ranges between voxel planes cut again to match the cells' Euler characteristic
+    // The pieces past the first and the last plane, out to empty space: each loop a disc of its
+    // own, but where the grid's box cuts the object a wall and the holes open past its plane
+    // are one piece (a face with holes). Empty where those planes hold no loops.
+    std::vector<SlabPiece> beforeFirst, afterLast;
+    int addedPlanes = 0; // planes added by bisection
+    int cellMatches = 0; // ranges between voxel planes cut again to match the cells' Euler characteristic
 };
 
 /// The Euler characteristic of volumeToMesh's isosurface, layer by layer along the slicing axis
@@ -143,6 +147,9 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 /// both sides; if it does not, `dropLastPlane()` removes it again (from `planes` too) and the
 /// slab stays whole. Added planes sit at dyadic fractions of their slab, so they never depend on
 /// a level.
+///
+/// The pieces past the first and last planes (ContourGraph::beforeFirst, afterLast) are labelled
+/// out to the first voxel plane past the grid's active box.
 ///
 /// Then, where the graph holds a junction (a fork, a merge, a rim or an unresolved piece) and
 /// `cells` is given, its profile (called once) is compared with the pieces between each two voxel
