@@ -1045,24 +1045,36 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     const int original = static_cast<int>(planes.size());
     const GraphBuilder builder(volume, plan, planes, minThickness, maxShapeChange, addPlane, dropLastPlane);
     for (int k = 0; k + 1 < original; ++k) builder.refine(k, k + 1, builder.connect(k, k + 1), graph.slabs);
-    const bool junctions = std::any_of(graph.slabs.begin(), graph.slabs.end(), [](const ContourGraph::Slab& slab) {
-        return std::any_of(slab.pieces.begin(), slab.pieces.end(), [](const SlabPiece& p) {
-            return p.kind != EventKind::Band && p.kind != EventKind::Start && p.kind != EventKind::End;
-        });
-    });
-    if (cells && junctions) graph.slabs = builder.matchCells(std::move(graph.slabs), cells(), graph.cellMatches);
+    if (original > 0) {
+        // Past the first and the last plane (added planes all lie between), out to empty space.
+        PlaneLoops before, after;
+        before.w = volume.bboxMin()[plan.axis] - 1.0;
+        after.w = volume.bboxMax()[plan.axis] + 1.0;
+        const PlaneLoops &first = planes.front(), &last = planes[static_cast<std::size_t>(original - 1)];
+        if (!first.loops.empty()) graph.beforeFirst = connectThroughSlab(volume, plan, before, first);
+        if (!last.loops.empty()) graph.afterLast = connectThroughSlab(volume, plan, last, after);
+    }
+    // The cells are compared where the graph holds a junction, or where the surface starts more
+    // than once (several objects, or specks beside one: a speck between two planes is a start and
+    // an end that no plane shows) and the planes cover the box (the profile holds every voxel
+    // layer of it: spheres 2e9 voxels apart would need 48 GB); a single tube would pay most of its
+    // time for them.
+    const double layers = static_cast<double>(volume.bboxMax()[plan.axis]) - volume.bboxMin()[plan.axis] + 1.0;
+    const bool covered = layers <= 64.0 * original;
+    long long starts = static_cast<long long>(graph.beforeFirst.size());
+    bool junctions = false;
+    for (const ContourGraph::Slab& slab : graph.slabs)
+        for (const SlabPiece& p : slab.pieces) {
+            starts += p.kind == EventKind::Start ? 1 : 0;
+            junctions =
+                junctions || (p.kind != EventKind::Band && p.kind != EventKind::Start && p.kind != EventKind::End);
+        }
+    if (cells && (junctions || (starts > 1 && covered)))
+        graph.slabs = builder.matchCells(std::move(graph.slabs), cells(), graph.cellMatches);
     graph.addedPlanes = static_cast<int>(planes.size()) - original;
     graph.order.push_back(0);
     for (const ContourGraph::Slab& slab : graph.slabs) graph.order.push_back(slab.above);
     if (original == 0) graph.order.clear();
-    if (!graph.order.empty()) {
-        PlaneLoops before, after; // empty space: every voxel plane past the active box is outside
-        before.w = volume.bboxMin()[plan.axis] - 1.0;
-        after.w = volume.bboxMax()[plan.axis] + 1.0;
-        const PlaneLoops &first = planes[graph.order.front()], &last = planes[graph.order.back()];
-        if (!first.loops.empty()) graph.beforeFirst = connectThroughSlab(volume, plan, before, first);
-        if (!last.loops.empty()) graph.afterLast = connectThroughSlab(volume, plan, last, after);
-    }
     return graph;
 }
 

@@ -823,6 +823,20 @@ TEST(Graph, ASpeckInOneVoxelPlaneIsAComponentOfItsOwn)
     }
 }
 
+// Two blocks and, beside them, a speck a voxel across between two planes (the plan's planes lie at
+// even z, from the box's low end): no plane shows it, and the graph holds no junction, but the
+// surface starts more than once, so the cells are compared, and a cut between those planes finds
+// it. (The cells were compared only at junctions: 2 components, Euler characteristic 4.)
+TEST(Graph, ASpeckBetweenPlanesBesideOtherObjectsIsFound)
+{
+    const Volume volume =
+        densityBlocks({{{2, 2, 2}, {5, 5, 12}}, {{9, 9, 2}, {12, 12, 12}}}, {{{3, 11, 7}, 1.0f}}, 0.4);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    ASSERT_EQ(reference.components, 3);
+    ASSERT_EQ(reference.euler, 6);
+    expectEveryLevelAs(volume, Axis::Z, reference);
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,
