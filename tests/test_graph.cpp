@@ -859,6 +859,23 @@ TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
     expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
 
+// Known gap (registered as an expected failure in CMakeLists.txt). A random crop of the smoke at
+// iso 0.3, sliced along y, is not a manifold at any level: one contour edge in the added plane
+// y = 66.5 has four triangles, the band below, the patch above, the top cap of a wall capped there
+// and a flat triangle of the patch, which follows that same loop (Euler characteristic 123 and
+// 124 against 122, the isosurface's components all there). Found on random crops; not yet
+// understood: the wall's tube ends in the plane the patch's slab starts from.
+TEST(Graph, DISABLED_KnownGapARandomCropOfTheSmokeIsAManifold)
+{
+    test::TempDir dir;
+    const std::string path = dir.path("crop.vdb");
+    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), path, {61, 23, 42}, {95, 67, 65});
+    VolumeOptions read;
+    read.iso = 0.3;
+    const Volume volume = readVolume(path, read);
+    expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
+}
+
 namespace {
 
 // Every level of the smoke sliced along `axis` against volumeToMesh's isosurface.
