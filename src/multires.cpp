@@ -1196,10 +1196,12 @@ void Reconstruction::closeEnds()
     // plane, L-shaped, so no point of theirs sees all of them), and the isosurface has it as a
     // component of its own: where either end found how far it reaches, that end fans round its
     // apex anyway. A fold there is smaller than the speck; leaving it out costs a component.
+    const auto lone = [](const Tube& t) {
+        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined() &&
+               !t.bottom.aroundWall && !t.top.aroundWall;
+    };
     for (Tube& tube : mTubes) {
-        if (tube.members.size() != 1 || tube.bottom.fan || tube.top.fan || tube.bottom.joined() || tube.top.joined() ||
-            tube.bottom.aroundWall || tube.top.aroundWall)
-            continue;
+        if (!lone(tube)) continue;
         const double w = mPositions[tube.members.front().first];
         const auto reach = [&](const TubeEnd& end) {
             return end.hasApex ? std::abs(end.apexIndex[mPlan.axis] - w) : -1.0;
@@ -1209,17 +1211,14 @@ void Reconstruction::closeEnds()
     }
     // Any lone contour left without a fan encloses nothing that was found: it is dropped (and
     // counted) rather than meshed as a flat pillow.
-    const auto pillow = [](const Tube& t) {
-        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined() &&
-               !t.bottom.aroundWall && !t.top.aroundWall;
-    };
-    mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), pillow));
-    mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), pillow), mTubes.end());
+    mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), lone));
+    mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), lone), mTubes.end());
     if (mTubes.empty())
         throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
                         "': every cross-section lies in a single slice and cannot be closed; lower the spacing",
                     {Setting::Spacing});
     joinRims();
+    joinHolesAroundWalls();
 }
 
 bool Reconstruction::formRim(const Tube& outer, const Tube& hole, bool top) const
@@ -1273,35 +1272,41 @@ void Reconstruction::joinRims()
                 rims.push_back({best, top, {h}});
         }
     }
-    // A hole around a wall (markAroundWall): the wall in its plane that it encloses.
-    for (int h = 0; h < static_cast<int>(mTubes.size()); ++h)
-        for (const bool top : {false, true}) {
-            const auto endOf = [&](int t) { return top ? mTubes[t].members.back() : mTubes[t].members.front(); };
-            TubeEnd& holeEnd = top ? mTubes[h].top : mTubes[h].bottom;
-            if (!mTubes[h].hole || !holeEnd.aroundWall) continue;
-            const auto [hs, hl] = endOf(h);
-            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
-                TubeEnd& wallEnd = top ? mTubes[o].top : mTubes[o].bottom;
-                const auto [os, ol] = endOf(o);
-                if (mTubes[o].hole || !wallEnd.aroundWall || wallEnd.annulus >= 0 || os != hs ||
-                    !encloses(mLoops[hs][hl].loop, mLoops[os][ol].loop.points.front()))
-                    continue;
-                wallEnd.annulus = h;
-                holeEnd.annulus = o;
-                ++mStats.annularCaps;
-                break;
-            }
-        }
     for (const auto& [wall, top, holes] : rims) {
         if (holes.size() > 1 && joinRimFace(wall, holes, top)) continue;
         const int h = holes.front();
-        (top ? mTubes[wall].top : mTubes[wall].bottom).annulus = h;
-        (top ? mTubes[h].top : mTubes[h].bottom).annulus = wall;
-        ++mStats.annularCaps;
+        joinAnnulus(wall, h, top);
         const double w = mPositions[(top ? mTubes[h].members.back() : mTubes[h].members.front()).first];
         const double room = (top ? 1.0 : -1.0) * ((top ? mTubes[h].top : mTubes[h].bottom).wBound - w);
         addRimContours(mTubes[wall], mTubes[h], top, std::min(endReach(mOptions), room), kEndInset);
     }
+}
+
+void Reconstruction::joinHolesAroundWalls()
+{
+    // A hole around a wall (markAroundWall): the wall in its plane that it encloses.
+    for (int h = 0; h < static_cast<int>(mTubes.size()); ++h)
+        for (const bool top : {false, true}) {
+            const auto endOf = [&](int t) { return top ? mTubes[t].members.back() : mTubes[t].members.front(); };
+            if (!mTubes[h].hole || !(top ? mTubes[h].top : mTubes[h].bottom).aroundWall) continue;
+            const auto [hs, hl] = endOf(h);
+            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
+                const TubeEnd& wallEnd = top ? mTubes[o].top : mTubes[o].bottom;
+                const auto [os, ol] = endOf(o);
+                if (mTubes[o].hole || !wallEnd.aroundWall || wallEnd.annulus >= 0 || os != hs ||
+                    !encloses(mLoops[hs][hl].loop, mLoops[os][ol].loop.points.front()))
+                    continue;
+                joinAnnulus(o, h, top);
+                break;
+            }
+        }
+}
+
+void Reconstruction::joinAnnulus(int wall, int hole, bool top)
+{
+    (top ? mTubes[wall].top : mTubes[wall].bottom).annulus = hole;
+    (top ? mTubes[hole].top : mTubes[hole].bottom).annulus = wall;
+    ++mStats.annularCaps;
 }
 
 bool Reconstruction::joinRimFace(int wall, const std::vector<int>& holes, bool top)

@@ -469,6 +469,17 @@ void expectEveryLevelAs(const Volume& volume, Axis axis, const Topology& referen
     expectEveryLevelAs(Reconstruction(volume, options), reference);
 }
 
+// `volume`'s isosurface has `components` and Euler characteristic `euler` (else the phantom no
+// longer shows its case), and so has every level of its mesh sliced along z.
+void expectEveryLevelAlongZAs(const Volume& volume, int components, int euler,
+                              double spacing = SliceOptions{}.spacingVoxels)
+{
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    ASSERT_EQ(reference.components, components);
+    ASSERT_EQ(reference.euler, euler);
+    expectEveryLevelAs(volume, Axis::Z, reference, spacing);
+}
+
 // Every level of the contact's fog at iso 0.5 against volumeToMesh's isosurface, whose Euler
 // characteristic and components are the contact's.
 void expectFogContactAsVolumeToMesh(const FogContact& contact)
@@ -715,10 +726,7 @@ TEST(Graph, AVoidThatVolumeToMeshOpensAcrossAVoxelEdgeOpensBetweenVoxelPlanes)
     for (int y = 6; y < 16; ++y) channel.push_back({{7, y, 7}, 0.0f});
     for (int y = 7; y < 16; ++y) channel.push_back({{6, y, 7}, 0.0f});
     const Volume volume = densityBlocks({{{2, 2, 2}, {12, 12, 12}}}, channel, 0.4);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    ASSERT_EQ(reference.components, 1); // else volumeToMesh keeps the void
-    ASSERT_EQ(reference.euler, 2);
-    expectEveryLevelAs(volume, Axis::Z, reference, 0.5); // a plane at z = 6.5
+    expectEveryLevelAlongZAs(volume, 1, 2, 0.5); // else volumeToMesh keeps the void; a plane at z = 6.5
 }
 
 // A block of fog cut by the grid's top, z = 15, with a dimple two voxels deep in that face: the
@@ -730,10 +738,7 @@ TEST(Graph, AVoidThatVolumeToMeshOpensAcrossAVoxelEdgeOpensBetweenVoxelPlanes)
 TEST(Graph, AHoleOpenPastTheLastPlaneIsItsWallsRim)
 {
     const Volume volume = densityBlocks({{{2, 2, 2}, {12, 12, 15}}}, {{{6, 6, 14}, 0.0f}, {{6, 6, 15}, 0.0f}}, 0.4);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    ASSERT_EQ(reference.components, 1);
-    ASSERT_EQ(reference.euler, 2);
-    expectEveryLevelAs(volume, Axis::Z, reference);
+    expectEveryLevelAlongZAs(volume, 1, 2);
 }
 
 // The block of AHoleOpenPastTheLastPlaneIsItsWallsRim with two and with three dimples in its cut
@@ -748,10 +753,7 @@ TEST(Graph, AWallIsTheRimOfEveryHoleOpenPastTheLastPlane)
         for (int d = 0; d < dimples; ++d)
             for (const int z : {14, 15}) holes.push_back({{4 + 3 * d, 4 + 2 * d, z}, 0.0f});
         const Volume volume = densityBlocks({{{2, 2, 2}, {12, 12, 15}}}, holes, 0.4);
-        const Topology reference = checkTopology(isosurface(volume, 0.0));
-        ASSERT_EQ(reference.components, 1);
-        ASSERT_EQ(reference.euler, 2);
-        expectEveryLevelAs(volume, Axis::Z, reference);
+        expectEveryLevelAlongZAs(volume, 1, 2);
     }
 }
 
@@ -773,10 +775,7 @@ TEST(Graph, NestedRimsAtTheLastPlaneEachJoinTheirOwnWall)
     fill(6, 9, 11, 1.0f);  // the inner cup, a voxel clear of the cavity's floor
     fill(7, 8, 13, 0.0f);  // its hollow
     const Volume volume = densityBlocks({{{2, 2, 2}, {13, 13, 15}}}, carved, 0.4);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    ASSERT_EQ(reference.components, 2);
-    ASSERT_EQ(reference.euler, 4);
-    expectEveryLevelAs(volume, Axis::Z, reference);
+    expectEveryLevelAlongZAs(volume, 2, 4);
 }
 
 // A closed cavity in a block, with a post standing on its floor: where the cavity begins, its hole
@@ -794,10 +793,7 @@ TEST(Graph, APostStandingInACavityJoinsItsFloor)
                 carved.push_back({{x, y, z}, post ? 1.0f : 0.0f});
             }
     const Volume volume = densityBlocks({{{2, 2, 2}, {13, 13, 13}}}, carved, 0.4);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    ASSERT_EQ(reference.components, 2);
-    ASSERT_EQ(reference.euler, 4);
-    expectEveryLevelAs(volume, Axis::Z, reference);
+    expectEveryLevelAlongZAs(volume, 2, 4);
 }
 
 // A speck in one voxel plane: three voxels in an L, barely past the isovalue (0.41 and 0.39 at
@@ -816,10 +812,7 @@ TEST(Graph, ASpeckInOneVoxelPlaneIsAComponentOfItsOwn)
         const Volume volume = densityBlocks(
             {block}, {{corner, speck}, {corner + glm::ivec3{1, 0, 0}, speck}, {corner + glm::ivec3{1, 1, 0}, speck}},
             0.4);
-        const Topology reference = checkTopology(isosurface(volume, 0.0));
-        ASSERT_EQ(reference.components, 2); // else volumeToMesh no longer keeps the speck
-        ASSERT_EQ(reference.euler, 4);
-        expectEveryLevelAs(volume, Axis::Z, reference, 1.0); // a plane at z = 7
+        expectEveryLevelAlongZAs(volume, 2, 4, 1.0); // a plane at z = 7
     }
 }
 
@@ -831,11 +824,23 @@ TEST(Graph, ASpeckBetweenPlanesBesideOtherObjectsIsFound)
 {
     const Volume volume =
         densityBlocks({{{2, 2, 2}, {5, 5, 12}}, {{9, 9, 2}, {12, 12, 12}}}, {{{3, 11, 7}, 1.0f}}, 0.4);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    ASSERT_EQ(reference.components, 3);
-    ASSERT_EQ(reference.euler, 6);
-    expectEveryLevelAs(volume, Axis::Z, reference);
+    expectEveryLevelAlongZAs(volume, 3, 6);
 }
+
+namespace {
+
+// The smoke's voxels in the index box [lo, hi], read at `iso`.
+Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
+{
+    test::TempDir dir;
+    const std::string path = dir.path("crop.vdb");
+    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), path, lo, hi);
+    VolumeOptions read;
+    read.iso = iso;
+    return readVolume(path, read);
+}
+
+} // namespace
 
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
@@ -846,12 +851,7 @@ TEST(Graph, ASpeckBetweenPlanesBesideOtherObjectsIsFound)
 // (AWallIsTheRimOfEveryHoleOpenPastTheLastPlane).)
 TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
 {
-    test::TempDir dir;
-    const std::string path = dir.path("crop.vdb");
-    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), path, {20, 20, 20}, {60, 60, 60});
-    VolumeOptions read;
-    read.iso = 0.1;
-    const Volume volume = readVolume(path, read);
+    const Volume volume = smokeCrop({20, 20, 20}, {60, 60, 60}, 0.1);
     const Reconstruction reconstruction(volume, MeshOptions{});
     ASSERT_GT(reconstruction.stats().patches, 0); // else the crop no longer shows the case
     EXPECT_EQ(reconstruction.stats().unresolvedEvents + reconstruction.stats().unresolvedJunctions, 0);
@@ -868,12 +868,7 @@ TEST(Graph, PiecesNoConstructionFitsAreMeshedFromTheirCells)
 // random crops; not yet resolved.
 TEST(Graph, DISABLED_KnownGapARandomCropOfTheSmokeIsAManifold)
 {
-    test::TempDir dir;
-    const std::string path = dir.path("crop.vdb");
-    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), path, {61, 23, 42}, {95, 67, 65});
-    VolumeOptions read;
-    read.iso = 0.3;
-    const Volume volume = readVolume(path, read);
+    const Volume volume = smokeCrop({61, 23, 42}, {95, 67, 65}, 0.3);
     expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
 }
 

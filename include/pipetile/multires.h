@@ -287,6 +287,10 @@ private:
     /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus;
     /// a wall around several such holes, by a face with those holes (joinRimFace).
     void joinRims();
+    /// The ends markAroundWall marked, each hole's with the wall it encloses, by an annulus.
+    void joinHolesAroundWalls();
+    /// Joins the two tubes' ends on that side by an annulus (TubeEnd::annulus).
+    void joinAnnulus(int wall, int hole, bool top);
     /// Joins the wall tube's end and its holes' ends on that side by a Rim junction in their
     /// plane; false (nothing changed) if the wall's polygon does not split among them.
     bool joinRimFace(int wall, const std::vector<int>& holes, bool top);
