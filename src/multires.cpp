@@ -530,17 +530,9 @@ void Reconstruction::resolveEvents()
             }
             Junction junction;
             if (joins && makeJunction(slab, piece, junction)) {
-                const int id = static_cast<int>(mJunctions.size());
+                const int id = addJunction(std::move(junction));
                 for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.junction = id;
                 for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id;
-                mStats.forks += piece.kind == EventKind::Fork ? 1 : 0;
-                mStats.merges += piece.kind == EventKind::Merge ? 1 : 0;
-                mStats.rims += piece.kind == EventKind::Rim ? 1 : 0;
-                mStats.keyholes += junction.keyhole.open() ? 1 : 0;
-                // A junction of c contours is a sphere with c holes less one disc (Euler 2 - c):
-                // c - 2 saddles, so that caps - saddles stays the mesh's Euler characteristic.
-                mStats.saddles += static_cast<int>(piece.below.size() + piece.above.size()) - 2;
-                mJunctions.push_back(std::move(junction));
                 continue;
             }
             if (joins && !patch) patch = std::move(patchesOf(slab, {&piece}).front());
@@ -1320,15 +1312,25 @@ bool Reconstruction::joinRimFace(int wall, const std::vector<int>& holes, bool t
     junction.single = endOf(mTubes[wall]);
     for (int h : holes) junction.many.push_back(endOf(mTubes[h]));
     if (!splitJunction(junction)) return false;
-    const int id = static_cast<int>(mJunctions.size());
+    const int id = addJunction(std::move(junction));
     (top ? mTubes[wall].top : mTubes[wall].bottom).junction = id;
     for (int h : holes) (top ? mTubes[h].top : mTubes[h].bottom).junction = id;
-    ++mStats.rims;
-    mStats.keyholes += junction.keyhole.open() ? 1 : 0;
-    mStats.saddles += static_cast<int>(holes.size()) - 1; // a face with k holes: Euler 1 - k
-    mJunctions.push_back(std::move(junction));
     centreParts(static_cast<std::size_t>(id));
     return true;
+}
+
+int Reconstruction::addJunction(Junction&& junction)
+{
+    mStats.forks += junction.kind == EventKind::Fork ? 1 : 0;
+    mStats.merges += junction.kind == EventKind::Merge ? 1 : 0;
+    mStats.rims += junction.kind == EventKind::Rim ? 1 : 0;
+    mStats.keyholes += junction.keyhole.open() ? 1 : 0;
+    // A junction of c contours is a sphere with c holes less one disc (Euler 2 - c): c - 2
+    // saddles, so that caps - saddles stays the mesh's Euler characteristic.
+    const int contours = 1 + (junction.inner.first >= 0 ? 1 : 0) + static_cast<int>(junction.many.size());
+    mStats.saddles += contours - 2;
+    mJunctions.push_back(std::move(junction));
+    return static_cast<int>(mJunctions.size()) - 1;
 }
 
 void Reconstruction::groupRays()

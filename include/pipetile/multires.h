@@ -287,6 +287,8 @@ private:
     /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus;
     /// a wall around several such holes, by a face with those holes (joinRimFace).
     void joinRims();
+    /// Appends a split junction and counts it (its kind, keyhole and saddles); returns its index.
+    int addJunction(Junction&& junction);
     /// The ends markAroundWall marked, each hole's with the wall it encloses, by an annulus.
     void joinHolesAroundWalls();
     /// Joins the two tubes' ends on that side by an annulus (TubeEnd::annulus).
