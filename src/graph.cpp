@@ -486,6 +486,7 @@ public:
         : mLayers(layers),
           mSlab(slab),
           mAxis(axis),
+          mPlanes{planes[0], planes[1]},
           mPieces(pieces.size())
     {
         for (std::size_t p = 0; p < pieces.size(); ++p) {
@@ -650,7 +651,46 @@ private:
             ids.push_back(*id);
         }
         // The cycle runs around the inside: its fan faces it, so the triangles turn to face out.
+        const std::optional<std::size_t> apex = fanApex(piece.patch, ids);
+        if (apex) {
+            std::rotate(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(*apex), ids.end());
+        } else {
+            ids.insert(ids.begin(), static_cast<std::uint32_t>(piece.patch.vertices.size()));
+            ids.push_back(ids[1]);
+            piece.patch.vertices.push_back(centreOf(piece.patch, ids));
+        }
         for (std::size_t k = 1; k + 1 < ids.size(); ++k) piece.patch.triangles.push_back({ids[0], ids[k + 1], ids[k]});
+    }
+
+    // Where a cycle's fan may start: a point with no other of its own plane beyond its two
+    // neighbours (a point inside the slab has none). A fan draws a chord from its apex to each of
+    // those, in the plane, with a triangle lying flat in it: the patch would meet its plane in
+    // more than its loops' polygons, and a chord between two points of a loop can be an edge of
+    // the other side's surface too (a keyhole's slit, flat in the single contour's plane: four
+    // triangles on one edge in a crop of the smoke, ARandomCropOfTheSmokeIsAManifold). Nothing
+    // where every point has such others (a cube between two planes whose faces in both are
+    // saddles that only one joins): then no triangulation of the cycle alone avoids them.
+    static std::optional<std::size_t> fanApex(const SlabPatch& patch, const std::vector<std::uint32_t>& ids)
+    {
+        const std::size_t n = ids.size();
+        for (std::size_t a = 0; a < n; ++a) {
+            const int plane = patch.vertices[ids[a]].plane;
+            bool clear = true;
+            for (std::size_t k = 2; plane >= 0 && clear && k + 1 < n; ++k)
+                clear = patch.vertices[ids[(a + k) % n]].plane != plane;
+            if (clear) return a;
+        }
+        return std::nullopt;
+    }
+
+    // A point inside the slab for a cycle to fan around: the mean of its points (`ids` from 1),
+    // which lie on both sides of it along the axis, so it lies in neither plane.
+    static SlabPatch::Vertex centreOf(const SlabPatch& patch, const std::vector<std::uint32_t>& ids)
+    {
+        SlabPatch::Vertex centre;
+        for (std::size_t k = 1; k + 1 < ids.size(); ++k) centre.index += patch.vertices[ids[k]].index;
+        centre.index /= static_cast<double>(ids.size() - 2);
+        return centre;
     }
 
     // The piece's vertex on the cube edge between corners a and b (a < b): a loop's point where
@@ -673,6 +713,8 @@ private:
             vertex.plane = side;
             vertex.loop = std::get<1>(crack->second);
             vertex.point = std::get<2>(crack->second);
+            vertex.index =
+                planeToIndex(mAxis, mPlanes[side]->loops[vertex.loop]->points[vertex.point], mLayers.w[innerLayer]);
         } else {
             // As the walk places its points (contour.cpp): linear between the two samples.
             const double fin = mLayers.planes[innerLayer].value(innerPixel.x, innerPixel.y);
@@ -713,6 +755,7 @@ private:
     const SlabLayers& mLayers;
     SlabLabels& mSlab;
     int mAxis;
+    const PlaneLoops* mPlanes[2];
     std::vector<Piece> mPieces;
     std::map<std::pair<std::int32_t, std::int32_t>, std::size_t> mPieceOf; // by inside and outside region
     // Per crack of the pieces' loops, by plane (0 below, 1 above), inside pixel and outside pixel:

@@ -87,7 +87,7 @@ struct SlabPatch {
     struct Vertex {
         int plane = -1;            // 0: a point of a loop below, 1: above; -1: inside the slab
         int loop = -1, point = -1; // the loop (index into that plane's loops) and its point
-        glm::dvec3 index{0.0};     // inside the slab: index-space position
+        glm::dvec3 index{0.0};     // index-space position (a loop's point's too)
     };
     std::vector<Vertex> vertices;
     std::vector<std::array<std::uint32_t, 3>> triangles; // facing the outside, in index space
