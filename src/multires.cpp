@@ -455,15 +455,9 @@ void Reconstruction::resolveEvents()
     // A patch's loops end the tubes below it and start those above; the handles it found are the
     // piece's.
     auto joinPatch = [&](const ContourGraph::Slab& slab, SlabPiece& piece, SlabPatch&& surface) {
-        mPatches.push_back({slab.below, slab.above, std::move(surface)});
-        const int id = static_cast<int>(mPatches.size()) - 1;
+        const int id = addPatch(slab.below, slab.above, piece, std::move(surface));
         for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.patch = id;
         for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.patch = id;
-        ++mStats.patches;
-        mStats.patchEuler += mPatches.back().surface.euler;
-        const int before = piece.euler();
-        piece.handles = (before - mPatches.back().surface.euler) / 2;
-        mStats.eventEuler += piece.euler() - before;
     };
     if (mGraph.order.empty()) return;
     const int first = mGraph.order.front(), last = mGraph.order.back();
@@ -493,7 +487,8 @@ void Reconstruction::resolveEvents()
                 wanted.push_back(&slab.pieces[k]);
                 wantedAt.push_back(k);
             }
-        std::vector<std::optional<SlabPatch>> patches(slab.pieces.size()), found = patchesOf(slab, wanted);
+        std::vector<std::optional<SlabPatch>> patches(slab.pieces.size()),
+            found = patchesOf(slab.below, slab.above, wanted);
         for (std::size_t i = 0; i < found.size(); ++i) patches[wantedAt[i]] = std::move(found[i]);
         for (std::size_t k = 0; k < slab.pieces.size(); ++k) {
             SlabPiece& piece = slab.pieces[k]; // a patch records the handles it finds
@@ -535,7 +530,7 @@ void Reconstruction::resolveEvents()
                 for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id;
                 continue;
             }
-            if (joins && !patch) patch = std::move(patchesOf(slab, {&piece}).front());
+            if (joins && !patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
             if ((joins || piece.kind == EventKind::Unresolved) && patch) {
                 joinPatch(slab, piece, std::move(*patch));
                 continue;
@@ -632,7 +627,7 @@ bool Reconstruction::makeWaist(const ContourGraph::Slab& slab, const SlabPiece& 
     return false;
 }
 
-std::vector<std::optional<SlabPatch>> Reconstruction::patchesOf(const ContourGraph::Slab& slab,
+std::vector<std::optional<SlabPatch>> Reconstruction::patchesOf(int below, int above,
                                                                 const std::vector<const SlabPiece*>& pieces) const
 {
     // Unlike a waist, the cells give holes and handles too; but their triangles are as fine as
@@ -640,11 +635,27 @@ std::vector<std::optional<SlabPatch>> Reconstruction::patchesOf(const ContourGra
     if (pieces.empty()) return {};
     PlaneLoops planes[2];
     for (int side = 0; side < 2; ++side) {
-        const int s = side == 0 ? slab.below : slab.above;
+        const int s = side == 0 ? below : above;
+        if (s < 0) {
+            // As the graph labelled the pieces past its first and last planes (buildContourGraph).
+            planes[side].w = side == 0 ? mVolume.bboxMin()[mPlan.axis] - 1.0 : mVolume.bboxMax()[mPlan.axis] + 1.0;
+            continue;
+        }
         planes[side].w = mPositions[s];
         for (const SliceLoop& l : mLoops[s]) planes[side].loops.push_back(&l.loop);
     }
     return patchPieces(mVolume, mPlan, planes[0], planes[1], pieces);
+}
+
+int Reconstruction::addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface)
+{
+    mPatches.push_back({below, above, std::move(surface)});
+    ++mStats.patches;
+    mStats.patchEuler += mPatches.back().surface.euler;
+    const int before = piece.euler();
+    piece.handles = (before - mPatches.back().surface.euler) / 2;
+    mStats.eventEuler += piece.euler() - before;
+    return static_cast<int>(mPatches.size()) - 1;
 }
 
 bool Reconstruction::splitJunction(Junction& junction) const
@@ -1265,7 +1276,7 @@ void Reconstruction::joinRims()
         }
     }
     for (const auto& [wall, top, holes] : rims) {
-        if (holes.size() > 1 && joinRimFace(wall, holes, top)) continue;
+        if (holes.size() > 1 && (joinRimFace(wall, holes, top) || patchFace(wall, holes, top))) continue;
         const int h = holes.front();
         joinAnnulus(wall, h, top);
         const double w = mPositions[(top ? mTubes[h].members.back() : mTubes[h].members.front()).first];
@@ -1316,6 +1327,31 @@ bool Reconstruction::joinRimFace(int wall, const std::vector<int>& holes, bool t
     (top ? mTubes[wall].top : mTubes[wall].bottom).junction = id;
     for (int h : holes) (top ? mTubes[h].top : mTubes[h].bottom).junction = id;
     centreParts(static_cast<std::size_t>(id));
+    return true;
+}
+
+bool Reconstruction::patchFace(int wall, const std::vector<int>& holes, bool top)
+{
+    // A hole that no nearest wall point sees (inside, behind others: a face of the smoke's crop
+    // with six dimples) owns no arc of the wall, and the face would have been an annulus for one
+    // hole, the others closed flat as voids of their own. Past the first or last plane, the
+    // cells out to empty space give that face, with all its holes.
+    const auto endOf = [&](const Tube& tube) { return top ? tube.members.back() : tube.members.front(); };
+    const int s = endOf(mTubes[wall]).first;
+    if (s != (top ? mGraph.order.back() : mGraph.order.front())) return false;
+    std::vector<int> loops{endOf(mTubes[wall]).second};
+    for (int h : holes) loops.push_back(endOf(mTubes[h]).second);
+    std::sort(loops.begin(), loops.end());
+    std::vector<SlabPiece>& past = top ? mGraph.afterLast : mGraph.beforeFirst;
+    const auto piece =
+        std::find_if(past.begin(), past.end(), [&](const SlabPiece& p) { return (top ? p.below : p.above) == loops; });
+    if (piece == past.end()) return false;
+    const int below = top ? s : -1, above = top ? -1 : s;
+    std::optional<SlabPatch> surface = std::move(patchesOf(below, above, {&*piece}).front());
+    if (!surface) return false;
+    const int id = addPatch(below, above, *piece, std::move(*surface));
+    (top ? mTubes[wall].top : mTubes[wall].bottom).patch = id;
+    for (int h : holes) (top ? mTubes[h].top : mTubes[h].bottom).patch = id;
     return true;
 }
 
@@ -1531,7 +1567,10 @@ Skeleton Reconstruction::skeleton() const
         for (const Tube& tube : mTubes)
             for (const TubeEnd* end : {&tube.bottom, &tube.top})
                 contours += end->patch == static_cast<int>(&patch - mPatches.data()) ? 1 : 0;
-        skeleton.patches.push_back({mPositions[patch.below], mPositions[patch.above], contours, patch.surface.euler});
+        // A face's patch reaches out to the empty plane past the grid's box (patchFace).
+        const double wBelow = patch.below >= 0 ? mPositions[patch.below] : mVolume.bboxMin()[mPlan.axis] - 1.0;
+        const double wAbove = patch.above >= 0 ? mPositions[patch.above] : mVolume.bboxMax()[mPlan.axis] + 1.0;
+        skeleton.patches.push_back({wBelow, wAbove, contours, patch.surface.euler});
     }
     skeleton.unresolved = mUnresolved;
     return skeleton;

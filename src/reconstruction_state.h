@@ -97,7 +97,7 @@ struct Reconstruction::Junction : JunctionArcs {
 /// start those above. Its vertices are the same at every level; its points on the loops join
 /// their rings as extras, so the bands on the loops' other side run through them.
 struct Reconstruction::Patch {
-    int below = -1, above = -1; // planes
+    int below = -1, above = -1; // planes; -1: the empty plane past the grid's box (patchFace)
     SlabPatch surface;
 };
 

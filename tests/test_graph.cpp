@@ -757,6 +757,21 @@ TEST(Graph, AWallIsTheRimOfEveryHoleOpenPastTheLastPlane)
     }
 }
 
+// The block of AHoleOpenPastTheLastPlaneIsItsWallsRim with nine dimples in its cut face, three by
+// three: the middle one is nearest to no point of the wall, so the wall's polygon does not split
+// into an arc per hole. The face past the last plane is then meshed from its cells out to empty
+// space (a patch), all nine holes in it. (An annulus joined one hole and the other eight were
+// closed flat, voids of their own: 9 components, Euler characteristic 18.)
+TEST(Graph, AFaceWithAHoleNoWallPointSeesIsPatchedFromItsCells)
+{
+    std::vector<std::pair<glm::ivec3, float>> holes;
+    for (const int x : {4, 7, 10})
+        for (const int y : {4, 7, 10})
+            for (const int z : {14, 15}) holes.push_back({{x, y, z}, 0.0f});
+    const Volume volume = densityBlocks({{{1, 1, 2}, {13, 13, 15}}}, holes, 0.4);
+    expectEveryLevelAlongZAs(volume, 1, 2);
+}
+
 // A cup cut by the grid's top, z = 15, and a smaller cup standing free in its cavity, both open
 // at that face: the last plane holds the outer wall and the cavity, and inside them the inner
 // wall and its hollow, all centred alike. Each hole is its own wall's rim, the cavity the outer

@@ -243,9 +243,13 @@ private:
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
-    /// The pieces meshed from their slab's cells (graph.h, patchPieces).
-    std::vector<std::optional<SlabPatch>> patchesOf(const ContourGraph::Slab& slab,
+    /// The pieces of the slab between planes `below` and `above` meshed from its cells (graph.h,
+    /// patchPieces); -1 for either is the empty plane past the grid's box on that side.
+    std::vector<std::optional<SlabPatch>> patchesOf(int below, int above,
                                                     const std::vector<const SlabPiece*>& pieces) const;
+    /// Appends the patch of `piece` between those planes and counts it, with the handles it finds
+    /// (SlabPiece::handles); returns its index.
+    int addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface);
     bool splitJunction(Junction& junction) const;
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
@@ -296,6 +300,10 @@ private:
     /// Joins the wall tube's end and its holes' ends on that side by a Rim junction in their
     /// plane; false (nothing changed) if the wall's polygon does not split among them.
     bool joinRimFace(int wall, const std::vector<int>& holes, bool top);
+    /// Joins them by the patch of the piece past the first or last plane that they alone bound,
+    /// meshed from its cells out to empty space; false (nothing changed) where no such piece is, or
+    /// its cells do not close.
+    bool patchFace(int wall, const std::vector<int>& holes, bool top);
     /// Whether the wall `outer` and `hole` end in one plane on that side as a pipe's open rim.
     bool formRim(const Tube& outer, const Tube& hole, bool top) const;
     /// The contour on plane w that continues `member` past its tube's end, centred as a band to
