@@ -1088,14 +1088,18 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     const int original = static_cast<int>(planes.size());
     const GraphBuilder builder(volume, plan, planes, minThickness, maxShapeChange, addPlane, dropLastPlane);
     for (int k = 0; k + 1 < original; ++k) builder.refine(k, k + 1, builder.connect(k, k + 1), graph.slabs);
+    // Past the first and the last plane (added planes all lie between), out to empty space.
+    int last = original - 1;
+    const auto past = [&](int plane, bool after) {
+        PlaneLoops empty;
+        empty.w = after ? volume.bboxMax()[plan.axis] + 1.0 : volume.bboxMin()[plan.axis] - 1.0;
+        const PlaneLoops& loops = planes[static_cast<std::size_t>(plane)];
+        if (loops.loops.empty()) return std::vector<SlabPiece>{};
+        return after ? connectThroughSlab(volume, plan, loops, empty) : connectThroughSlab(volume, plan, empty, loops);
+    };
     if (original > 0) {
-        // Past the first and the last plane (added planes all lie between), out to empty space.
-        PlaneLoops before, after;
-        before.w = volume.bboxMin()[plan.axis] - 1.0;
-        after.w = volume.bboxMax()[plan.axis] + 1.0;
-        const PlaneLoops &first = planes.front(), &last = planes[static_cast<std::size_t>(original - 1)];
-        if (!first.loops.empty()) graph.beforeFirst = connectThroughSlab(volume, plan, before, first);
-        if (!last.loops.empty()) graph.afterLast = connectThroughSlab(volume, plan, last, after);
+        graph.beforeFirst = past(0, false);
+        graph.afterLast = past(last, true);
     }
     // The cells are compared where the graph holds a junction, or where the surface starts more
     // than once (several objects, or specks beside one: a speck between two planes is a start and
@@ -1112,8 +1116,22 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
             junctions =
                 junctions || (p.kind != EventKind::Band && p.kind != EventKind::Start && p.kind != EventKind::End);
         }
-    if (cells && (junctions || (starts > 1 && covered)))
-        graph.slabs = builder.matchCells(std::move(graph.slabs), cells(), graph.cellMatches);
+    if (cells && (junctions || (starts > 1 && covered))) {
+        const EulerProfile profile = cells();
+        // Where the spacing stops short of the box's end, the voxel layers past the last plane can
+        // hold what no plane meets (specks: five in a crop of the smoke), and the cells count it
+        // there. The box's last voxel plane meets every such speck (each holds an inside voxel),
+        // and the slab up to it is compared with the cells like any other.
+        const double wLast = planes[static_cast<std::size_t>(last)].w, wEnd = volume.bboxMax()[plan.axis];
+        if (original > 0 && wEnd > wLast && wLast == std::floor(wLast) &&
+            profile.between(wLast, std::numeric_limits<double>::infinity()) != eulerOf(graph.afterLast)) {
+            const int end = addPlane(wEnd);
+            builder.refine(last, end, builder.connect(last, end), graph.slabs);
+            last = end;
+            graph.afterLast = past(last, true);
+        }
+        graph.slabs = builder.matchCells(std::move(graph.slabs), profile, graph.cellMatches);
+    }
     graph.addedPlanes = static_cast<int>(planes.size()) - original;
     graph.order.push_back(0);
     for (const ContourGraph::Slab& slab : graph.slabs) graph.order.push_back(slab.above);

@@ -842,6 +842,17 @@ TEST(Graph, ASpeckBetweenPlanesBesideOtherObjectsIsFound)
     expectEveryLevelAlongZAs(volume, 3, 6);
 }
 
+// The blocks of ASpeckBetweenPlanesBesideOtherObjectsIsFound and a speck in the box's last voxel
+// plane, z = 15, past the plan's last plane, z = 14 (the spacing stops short of the box's end): the
+// cells count it past that plane, so a plane at the box's last voxel plane meets it. (No plane
+// met it: 2 components, Euler characteristic 4; five such specks in a crop of the smoke.)
+TEST(Graph, ASpeckPastTheLastPlaneIsFound)
+{
+    const Volume volume =
+        densityBlocks({{{2, 2, 2}, {5, 5, 12}}, {{9, 9, 2}, {12, 12, 12}}}, {{{3, 11, 15}, 1.0f}}, 0.4);
+    expectEveryLevelAlongZAs(volume, 3, 6);
+}
+
 namespace {
 
 // The smoke's voxels in the index box [lo, hi], read at `iso`.
