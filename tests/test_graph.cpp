@@ -898,6 +898,16 @@ TEST(Graph, ARandomCropOfTheSmokeIsAManifold)
     expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A crop of the smoke at iso 0.1, sliced along x: the cells count a handle between the voxel
+// planes x = 37 and 38 that spans the planes added there for the events' crotches, so that no
+// slab's patch finds it (Euler characteristic 38 against 36, and a warning). The range's pieces,
+// taken across the whole range and patched from its cells, find it (patchWholeRanges).
+TEST(Graph, AHandleAcrossThePlanesAddedInsideAVoxelIsPatchedWhole)
+{
+    const Volume volume = smokeCrop({37, 175, 48}, {57, 209, 72}, 0.1);
+    expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
+}
+
 namespace {
 
 // Every level of the smoke sliced along `axis` against volumeToMesh's isosurface.

@@ -31,6 +31,8 @@
 
 namespace pipetile {
 
+struct EulerDifference; // validate.h
+
 /// Which tiler joins adjacent contours.
 enum class TilerKind {
     ContourTree, // the paper's: simultaneous traversal of contour trees, integer-only
@@ -247,6 +249,12 @@ private:
     /// patchPieces); -1 for either is the empty plane past the grid's box on that side.
     std::vector<std::optional<SlabPatch>> patchesOf(int below, int above,
                                                     const std::vector<const SlabPiece*>& pieces) const;
+    /// Plane s's loops as the graph sees them.
+    PlaneLoops planeLoops(int s) const;
+    /// Each range between voxel planes in `missed` (the cells count fewer there than the slabs'
+    /// pieces) whose pieces, taken across the whole range, find those handles when patched from
+    /// their cells: its slabs become one, the planes added between are dropped from the graph.
+    void patchWholeRanges(const std::vector<EulerDifference>& missed);
     /// Appends the patch of `piece` between those planes and counts it, with the handles it finds
     /// (SlabPiece::handles); returns its index.
     int addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface);
