@@ -1122,7 +1122,8 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
         // hold what no plane meets (specks: five in a crop of the smoke), and the cells count it
         // there. The box's last voxel plane meets every such speck (each holds an inside voxel),
         // and the slab up to it is compared with the cells like any other.
-        const double wLast = planes[static_cast<std::size_t>(last)].w, wEnd = volume.bboxMax()[plan.axis];
+        const double wLast = original > 0 ? planes[static_cast<std::size_t>(last)].w : 0.0;
+        const double wEnd = volume.bboxMax()[plan.axis];
         if (original > 0 && wEnd > wLast && wLast == std::floor(wLast) &&
             profile.between(wLast, std::numeric_limits<double>::infinity()) != eulerOf(graph.afterLast)) {
             const int end = addPlane(wEnd);
