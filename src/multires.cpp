@@ -461,10 +461,16 @@ void Reconstruction::resolveEvents()
     // between interpolated planes can each find the one handle the cells count (the smoke, y 16
     // to 17: two patches, each with a handle), and the first in w takes it.
     std::vector<EulerDifference> missed;
-    if (mCells)
+    const auto countMissed = [&] {
+        missed.clear();
         for (const EulerDifference& d : eulerDifferences(*mCells, mGraph, mPositions))
             if (d.difference < 0) missed.push_back(d);
-    patchWholeRanges(missed);
+    };
+    if (mCells) {
+        countMissed();
+        patchWholeRanges(missed);
+        countMissed(); // a whole range's pieces can count otherwise than its slabs' did
+    }
     for (ContourGraph::Slab& slab : mGraph.slabs) {
         const auto range = std::find_if(missed.begin(), missed.end(), [&](const EulerDifference& d) {
             return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
@@ -655,9 +661,28 @@ void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed
     // Planes added inside a range between voxel planes (for its events' crotches) see the
     // interpolated field's contacts there, and a handle the cells count can span them, so that no
     // slab's patch finds it (the smoke's crops: nine of 75 runs a handle short, each within one
-    // voxel). Where the pieces of the whole range, patched from its cells, find the handles the
-    // range misses, they replace its slabs; the planes between are then no part of the graph.
-    for (const EulerDifference& d : missed) {
+    // voxel); or a patch between a voxel plane and an added one, where no rule decides a saddle,
+    // finds a handle the cells do not count (one crop: Euler characteristic 132 against 134).
+    // Where the pieces of the whole range, patched from its cells, add up to the cells' count,
+    // they replace its slabs; the planes between are then no part of the graph.
+    std::vector<EulerDifference> ranges = missed;
+    if (mCells) {
+        std::size_t from = 0; // the slab after the last voxel plane
+        for (std::size_t k = 1; k < mGraph.order.size(); ++k) {
+            const double w = mPositions[mGraph.order[k]];
+            if (w != std::floor(w)) continue;
+            const double wFrom = mPositions[mGraph.order[from]];
+            const bool missing =
+                std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) { return d.wBelow == wFrom; });
+            const auto contradicts = [&](const ContourGraph::Slab& slab) { return unresolvedPatchFindsHandles(slab); };
+            const auto slab = mGraph.slabs.begin() + static_cast<std::ptrdiff_t>(from);
+            if (k - from >= 2 && wFrom == std::floor(wFrom) && !missing &&
+                std::any_of(slab, slab + static_cast<std::ptrdiff_t>(k - from), contradicts))
+                ranges.push_back({wFrom, w, 0});
+            from = k;
+        }
+    }
+    for (const EulerDifference& d : ranges) {
         if (!std::isfinite(d.wBelow) || !std::isfinite(d.wAbove)) continue;
         const auto inRange = [&](const ContourGraph::Slab& slab) {
             return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
@@ -673,19 +698,28 @@ void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed
         long long now = 0, patched = 0;
         for (auto slab = first; slab != end; ++slab)
             for (const SlabPiece& piece : slab->pieces) now += piece.euler();
+        bool closes = true; // else a piece the cells do not close: the range stays as it was
         for (const std::optional<SlabPatch>& patch : patchesOf(whole.below, whole.above, pieces)) {
-            if (!patch) {
-                patched = now; // a piece the cells do not close: the range stays as it was
-                break;
-            }
-            patched += patch->euler;
+            closes = closes && patch.has_value();
+            patched += patch ? patch->euler : 0;
         }
-        if (patched != now + d.difference) continue;
+        if (!closes || patched != now + d.difference) continue;
         std::vector<int>& order = mGraph.order;
         order.erase(std::find(order.begin(), order.end(), whole.below) + 1,
                     std::find(order.begin(), order.end(), whole.above));
         slabs.insert(slabs.erase(first, end), std::move(whole));
     }
+}
+
+bool Reconstruction::unresolvedPatchFindsHandles(const ContourGraph::Slab& slab) const
+{
+    std::vector<const SlabPiece*> unresolved;
+    for (const SlabPiece& piece : slab.pieces)
+        if (piece.kind == EventKind::Unresolved) unresolved.push_back(&piece);
+    const std::vector<std::optional<SlabPatch>> patches = patchesOf(slab.below, slab.above, unresolved);
+    for (std::size_t k = 0; k < patches.size(); ++k)
+        if (patches[k] && patches[k]->euler != unresolved[k]->euler()) return true;
+    return false;
 }
 
 int Reconstruction::addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface)

@@ -908,6 +908,17 @@ TEST(Graph, AHandleAcrossThePlanesAddedInsideAVoxelIsPatchedWhole)
     expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A crop of the smoke at iso 0.1, sliced along y: between the voxel planes y = 161 and 162 the
+// slabs' pieces add up to the cells' count, but a piece no construction fits, between 161 and the
+// plane added at 161.5 (where no rule decides a saddle), patched from its cells had a handle the
+// cells do not count (Euler characteristic 132 against 134). The range's pieces taken whole and
+// patched from its cells give the cells' count, and each takes its own patch's handles.
+TEST(Graph, APatchBetweenAVoxelPlaneAndAnAddedOneFindsNoHandleTheCellsLack)
+{
+    const Volume volume = smokeCrop({9, 120, 19}, {49, 169, 47}, 0.1);
+    expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
+}
+
 namespace {
 
 // Every level of the smoke sliced along `axis` against volumeToMesh's isosurface.
