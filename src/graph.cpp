@@ -414,6 +414,13 @@ std::vector<LoopCluster> clusterLoops(const SlicePlan& plan, const PlaneLoops& b
 
 } // namespace
 
+PlaneLoops pastTheBox(const Volume& volume, const SlicePlan& plan, bool after)
+{
+    PlaneLoops empty;
+    empty.w = after ? volume.bboxMax()[plan.axis] + 1.0 : volume.bboxMin()[plan.axis] - 1.0;
+    return empty;
+}
+
 std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
                                           const PlaneLoops& above)
 {
@@ -1091,8 +1098,7 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     // Past the first and the last plane (added planes all lie between), out to empty space.
     int last = original - 1;
     const auto past = [&](int plane, bool after) {
-        PlaneLoops empty;
-        empty.w = after ? volume.bboxMax()[plan.axis] + 1.0 : volume.bboxMin()[plan.axis] - 1.0;
+        const PlaneLoops empty = pastTheBox(volume, plan, after);
         const PlaneLoops& loops = planes[static_cast<std::size_t>(plane)];
         if (loops.loops.empty()) return std::vector<SlabPiece>{};
         return after ? connectThroughSlab(volume, plan, loops, empty) : connectThroughSlab(volume, plan, empty, loops);

@@ -631,17 +631,9 @@ std::vector<std::optional<SlabPatch>> Reconstruction::patchesOf(int below, int a
     // Unlike a waist, the cells give holes and handles too; but their triangles are as fine as
     // the voxels at every level, so the constructions from contours go first.
     if (pieces.empty()) return {};
-    PlaneLoops planes[2];
-    for (int side = 0; side < 2; ++side) {
-        const int s = side == 0 ? below : above;
-        if (s < 0) {
-            // As the graph labelled the pieces past its first and last planes (buildContourGraph).
-            planes[side].w = side == 0 ? mVolume.bboxMin()[mPlan.axis] - 1.0 : mVolume.bboxMax()[mPlan.axis] + 1.0;
-            continue;
-        }
-        planes[side] = planeLoops(s);
-    }
-    return patchPieces(mVolume, mPlan, planes[0], planes[1], pieces);
+    const PlaneLoops lower = below >= 0 ? planeLoops(below) : pastTheBox(mVolume, mPlan, false);
+    const PlaneLoops upper = above >= 0 ? planeLoops(above) : pastTheBox(mVolume, mPlan, true);
+    return patchPieces(mVolume, mPlan, lower, upper, pieces);
 }
 
 PlaneLoops Reconstruction::planeLoops(int s) const
@@ -1643,8 +1635,8 @@ Skeleton Reconstruction::skeleton() const
             for (const TubeEnd* end : {&tube.bottom, &tube.top})
                 contours += end->patch == static_cast<int>(&patch - mPatches.data()) ? 1 : 0;
         // A face's patch reaches out to the empty plane past the grid's box (patchFace).
-        const double wBelow = patch.below >= 0 ? mPositions[patch.below] : mVolume.bboxMin()[mPlan.axis] - 1.0;
-        const double wAbove = patch.above >= 0 ? mPositions[patch.above] : mVolume.bboxMax()[mPlan.axis] + 1.0;
+        const double wBelow = patch.below >= 0 ? mPositions[patch.below] : pastTheBox(mVolume, mPlan, false).w;
+        const double wAbove = patch.above >= 0 ? mPositions[patch.above] : pastTheBox(mVolume, mPlan, true).w;
         skeleton.patches.push_back({wBelow, wAbove, contours, patch.surface.euler});
     }
     skeleton.unresolved = mUnresolved;

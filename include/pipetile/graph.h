@@ -68,6 +68,10 @@ struct PlaneLoops {
                                                 // directions (or none: no shape test)
 };
 
+/// The empty plane a voxel past the grid's active box, below it or above it (`after`): the graph's
+/// pieces past its first and last planes reach out to it (ContourGraph::beforeFirst, afterLast).
+PlaneLoops pastTheBox(const Volume& volume, const SlicePlan& plan, bool after);
+
 /// The pieces of the slab between `below` and `above` (below.w < above.w), each with its kind.
 /// Every loop of either plane lies on exactly one piece.
 std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
