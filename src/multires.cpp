@@ -1066,16 +1066,22 @@ bool Reconstruction::sectionChanged(const SliceLoop& before, const SliceLoop& lo
     return depth(before.view.center) >= depth(travelled);
 }
 
-std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(const SliceLoop& member, bool hole, double w)
+std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int l, bool hole, double w)
 {
+    const SliceLoop& member = mLoops[s][l];
     std::vector<BoundaryLoop> loops = traceBoundaries(SlicePlane(mVolume, mPlan, w));
+    // A loop that overlaps the member may be another object's, which the slab keeps apart from it
+    // (the smoke: a speck of one voxel, capped, took the 168-pixel loop of the web around it half
+    // a voxel on as its end contour, and its band fanned that whole loop to the speck, 2.5 voxels
+    // inside the solid).
     const int best = nearest(
         static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
         [&](int k) {
             const BoundaryLoop& candidate = loops[k];
             return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
                    (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
-                    overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0);
+                    overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
+                   !sharedWithOthers(s, l, candidate);
         });
     if (best < 0) return std::nullopt;
     // Its own central point, from which the apex is highest on a rounded end; but where
@@ -1102,6 +1108,16 @@ std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(const Slic
     }
     if (endLoop.view.winding != 1) return std::nullopt;
     return endLoop;
+}
+
+bool Reconstruction::sharedWithOthers(int s, int l, const BoundaryLoop& candidate) const
+{
+    const std::vector<SliceLoop>& plane = mLoops[static_cast<std::size_t>(s)];
+    for (std::size_t k = 0; k < plane.size(); ++k)
+        if (static_cast<int>(k) != l && plane[k].loop.hole() == candidate.hole() &&
+            overlapPixels(plane[k].loop, candidate, glm::ivec2(0)) > 0)
+            return true;
+    return false;
 }
 
 double Reconstruction::roomPast(double w, double direction) const
@@ -1186,10 +1202,10 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // degrees of turn in one step, was 1.07 voxels off).
     double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
     if (step < 0.25) return false;
-    std::optional<SliceLoop> endLoop = endContourAt(member, tube.hole, plane.w() + direction * step);
+    std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step);
     while (endLoop && step > 0.5 &&
            misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister) {
-        std::optional<SliceLoop> closer = endContourAt(member, tube.hole, plane.w() + direction * 0.5 * step);
+        std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step);
         if (!closer) break;
         endLoop = std::move(closer);
         step *= 0.5;

@@ -318,9 +318,13 @@ private:
     bool patchFace(int wall, const std::vector<int>& holes, bool top);
     /// Whether the wall `outer` and `hole` end in one plane on that side as a pipe's open rim.
     bool formRim(const Tube& outer, const Tube& hole, bool top) const;
-    /// The contour on plane w that continues `member` past its tube's end, centred as a band to
-    /// it pairs best; none if no loop there overlaps it.
-    std::optional<SliceLoop> endContourAt(const SliceLoop& member, bool hole, double w);
+    /// The contour on plane w that continues `member` (loop l of plane s) past its tube's end,
+    /// centred as a band to it pairs best; none if no loop there overlaps it on the member's
+    /// piece of the slab between them.
+    std::optional<SliceLoop> endContourAt(int s, int l, bool hole, double w);
+    /// Whether `candidate` overlaps a loop of plane s other than l (of its kind): the slab keeps
+    /// those on other pieces than l's, so it is no end contour of l's tube.
+    bool sharedWithOthers(int s, int l, const BoundaryLoop& candidate) const;
     void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
     void chooseSlices();
