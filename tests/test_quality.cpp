@@ -372,8 +372,8 @@ TEST(Quality, NoNeedlesOnTheRealData)
 TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
 {
     // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy fog,
-    // keeps largest aspect ratios 95, 689, 689 and 689 at levels 0 to 3 (137, 177, 320 and 320
-    // before the ends of loops too thin for any cell's centre found their reach from their
+    // keeps largest aspect ratios 53, 95, 232 and 142 at levels 0 to 3 (95, 689, 689 and 689
+    // before end contours kept off other objects' loops; 137, 177, 320 and 320 before the ends of loops too thin for any cell's centre found their reach from their
     // pixels: the 689 has an edge of 0.011 voxel, one end a vertex of level 0, that no collapse
     // took), and one triangle of no area at levels 2 and 3 (at level 2 alone before planes between
     // voxel planes opened the voids volumeToMesh opens; README, Known gaps: at a patch a sixteenth
