@@ -318,9 +318,8 @@ private:
     bool patchFace(int wall, const std::vector<int>& holes, bool top);
     /// Whether the wall `outer` and `hole` end in one plane on that side as a pipe's open rim.
     bool formRim(const Tube& outer, const Tube& hole, bool top) const;
-    /// The contour on plane w that continues `member` (loop l of plane s) past its tube's end,
-    /// centred as a band to it pairs best; none if no loop there overlaps it on the member's
-    /// piece of the slab between them.
+    /// The contour on plane w that continues loop l of plane s past its tube's end, centred as a
+    /// band to it pairs best; none if no loop there overlaps it and no other loop of plane s.
     std::optional<SliceLoop> endContourAt(int s, int l, bool hole, double w);
     /// Whether `candidate` overlaps a loop of plane s other than l (of its kind): the slab keeps
     /// those on other pieces than l's, so it is no end contour of l's tube.
