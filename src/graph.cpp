@@ -1221,18 +1221,17 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
         return true;
     }
     // Two ways to close the arcs, both with every partner owning arcs: each partner one arc (a
-    // fork: the arcs' chords meet at a hub), or one partner several, each of the others one, in
-    // turn (a C with gaps against a wall and the holes it will enclose: each gap's chord closes
-    // one arc, and joins the several's arcs into one loop).
+    // fork: the arcs' chords meet at a hub), or one partner several, each of the others one (a C
+    // with gaps against a wall and the holes it will enclose, or lobes budding from a body at
+    // several necks: each other arc's chord closes it, and the several's arcs join into one loop
+    // across those chords). Specks budding from a body at two necks, made one arc each, gave one
+    // speck a stretch of the body's boundary, and its band crossed the body (the smoke: 1.8
+    // voxels inside).
     auto valid = [&](const std::vector<OwnerRun>& r) {
         if (onePerOwner(r)) return true;
         const std::vector<int> count = arcsPerOwner(r);
         const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
-        if (count[several] < 2 || count[several] != n - 1 || std::count(count.begin(), count.end(), 1) != n - 1)
-            return false;
-        for (std::size_t k = 0; k < r.size(); ++k) // the several's arcs and the others' alternate
-            if ((r[k].owner == several) == (r[(k + 1) % r.size()].owner == several)) return false;
-        return true;
+        return count[several] >= 2 && std::count(count.begin(), count.end(), 1) == n - 1;
     };
     mergeShortestRuns(runs, valid);
     if (runs.empty() || !valid(runs)) return false;

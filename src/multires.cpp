@@ -855,7 +855,18 @@ void Reconstruction::composeParts(Junction& junction) const
                 appendNode(part, middleOf((a + n - 1) % n));
             } else if (!junction.hubbed) {
                 const int own = middleOf(a);
-                appendNode(part, own >= 0 ? own : middleOf(b));
+                if (own >= 0) {
+                    appendNode(part, own); // its own chord, back to its first cut
+                    continue;
+                }
+                // The several's arc: across the chords of the arcs up to its next one, through the
+                // cuts between them.
+                for (std::size_t c = b; junction.owner[c] != static_cast<int>(k); c = (c + 1) % n) {
+                    const std::size_t next = (c + 1) % n;
+                    appendNode(part, middleOf(c));
+                    if (junction.owner[next] != static_cast<int>(k))
+                        appendArc(part, 0, junction.cuts[next], junction.cuts[next], 1);
+                }
             }
         }
         if (junction.hubbed) appendNode(part, firstMiddle);

@@ -886,6 +886,43 @@ TEST(Graph, AnEndContourIsNoOtherObjectsLoop)
     EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
 }
 
+// A block widens at z = 8 on two sides; three voxels at z = 7 (two on one side, one on the other)
+// bud from it there: a merge of four, the block's boundary parted by the buds at two necks. Each
+// bud's arc closes by its own chord across its neck, and the block's two arcs join across them. Made
+// one arc per partner (through a hub), one bud took the block's stretch between the necks, and its
+// band crossed the block: 2.6 voxels off at the top level.
+TEST(Graph, BudsAtTwoNecksOfABodyCloseByChordsOfTheirOwn)
+{
+    constexpr int n = 16;
+    std::vector<float> values(n * n * n, 1.0f);
+    const auto fill = [&](glm::ivec3 lo, glm::ivec3 hi) {
+        for (int x = lo.x; x <= hi.x; ++x)
+            for (int y = lo.y; y <= hi.y; ++y)
+                for (int z = lo.z; z <= hi.z; ++z) values[(x * n + y) * n + z] = -1.0f;
+    };
+    fill({3, 3, 2}, {10, 10, 12});  // the block
+    fill({11, 3, 8}, {12, 10, 12}); // widening toward +x
+    fill({4, 11, 8}, {6, 12, 12});  // and toward +y
+    fill({12, 3, 7}, {12, 3, 7});   // the buds, a voxel below the widenings
+    fill({12, 5, 7}, {12, 5, 7});
+    fill({5, 12, 7}, {5, 12, 7});
+    DenseVolume dense;
+    dense.values = values.data();
+    dense.dims = {n, n, n};
+    const Volume volume = volumeFromDense(dense, VolumeOptions{}, "block with buds");
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    ASSERT_EQ(reference.components, 1);
+    ASSERT_EQ(reference.euler, 2);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    options.slicing.spacingVoxels = 1.0; // the buds' plane
+    const Reconstruction reconstruction(volume, options);
+    expectEveryLevelAs(reconstruction, reference);
+    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
+    const Validation v = Validator(volume).validate(top.mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+}
+
 namespace {
 
 // The smoke's voxels in the index box [lo, hi], read at `iso`.

@@ -180,9 +180,10 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
 struct JunctionArcs {
     std::vector<int> cuts, owner;
     bool hubbed = true;         // every partner owns one arc: the arcs close through a hub (a
-                                // fork); else one partner owns every other arc and the others one
-                                // each (a C whose gaps close around holes): chords across the
-                                // gaps close those arcs and join the first partner's
+                                // fork); else one partner owns several arcs and the others one
+                                // each (a C whose gaps close around holes, lobes budding from a
+                                // body): chords across the others' arcs close them and join the
+                                // several's
     std::vector<int> innerCuts; // a ring's hole, split the same way: its arc k (from innerCuts[k]
                                 // to innerCuts[k + 1]) also goes to owner[k]
 };
