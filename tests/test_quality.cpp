@@ -350,7 +350,9 @@ void expectNoNeedlesOnRealData(const char* file, bool boundAspect = true)
     while (true) {
         const TriangleQuality q = measureQuality(refinement.mesh().mesh);
         EXPECT_EQ(q.degenerate, 0) << "level " << refinement.level();
-        if (boundAspect) EXPECT_LE(q.largestAspect, 100.0) << "level " << refinement.level();
+        if (boundAspect) {
+            EXPECT_LE(q.largestAspect, 100.0) << "level " << refinement.level();
+        }
         if (!refinement.canRefine()) break;
         refinement.refine();
     }
