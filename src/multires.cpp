@@ -658,21 +658,19 @@ void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed
     // Where the pieces of the whole range, patched from its cells, add up to the cells' count,
     // they replace its slabs; the planes between are then no part of the graph.
     std::vector<EulerDifference> ranges = missed;
-    if (mCells) {
-        std::size_t from = 0; // the slab after the last voxel plane
-        for (std::size_t k = 1; k < mGraph.order.size(); ++k) {
-            const double w = mPositions[mGraph.order[k]];
-            if (w != std::floor(w)) continue;
-            const double wFrom = mPositions[mGraph.order[from]];
-            const bool missing =
-                std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) { return d.wBelow == wFrom; });
-            const auto contradicts = [&](const ContourGraph::Slab& slab) { return unresolvedPatchFindsHandles(slab); };
-            const auto slab = mGraph.slabs.begin() + static_cast<std::ptrdiff_t>(from);
-            if (k - from >= 2 && wFrom == std::floor(wFrom) && !missing &&
-                std::any_of(slab, slab + static_cast<std::ptrdiff_t>(k - from), contradicts))
-                ranges.push_back({wFrom, w, 0});
-            from = k;
-        }
+    std::size_t from = 0; // the slab after the last voxel plane
+    for (std::size_t k = 1; k < mGraph.order.size(); ++k) {
+        const double w = mPositions[mGraph.order[k]];
+        if (w != std::floor(w)) continue;
+        const double wFrom = mPositions[mGraph.order[from]];
+        const bool missing =
+            std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) { return d.wBelow == wFrom; });
+        const auto contradicts = [&](const ContourGraph::Slab& slab) { return unresolvedPatchFindsHandles(slab); };
+        const auto slab = mGraph.slabs.begin() + static_cast<std::ptrdiff_t>(from);
+        if (k - from >= 2 && wFrom == std::floor(wFrom) && !missing &&
+            std::any_of(slab, slab + static_cast<std::ptrdiff_t>(k - from), contradicts))
+            ranges.push_back({wFrom, w, 0});
+        from = k;
     }
     for (const EulerDifference& d : ranges) {
         if (!std::isfinite(d.wBelow) || !std::isfinite(d.wAbove)) continue;

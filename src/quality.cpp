@@ -309,10 +309,10 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
         if (far) after.push_back({p[t[0]], p[t[1]], p[t[2]]});
     }
     if (guard.lowerWorst && !(worstAfter < worstBefore)) return false;
-    // Even a collapse of two vertices a hair apart makes no needle (over issue 17's bound, twice
-    // kCollapseAspect) worse than the worst it takes away: on Gaffer's smoke one moved a vertex
-    // onto the line through two others, a triangle of aspect 4.5e14 at levels 2 and 3.
-    if (worstAfter > 2.0 * kCollapseAspect && !(worstAfter <= worstBefore)) return false;
+    // Even a collapse of two vertices a hair apart makes no needle (past kLargestAspect) worse than
+    // the worst it takes away: on Gaffer's smoke one moved a vertex onto the line through two
+    // others, a triangle of aspect 4.5e14 at levels 2 and 3.
+    if (worstAfter > kLargestAspect && !(worstAfter <= worstBefore)) return false;
     return !far || collapseMove(p[a], p[b], before, after) <= guard.reach;
 }
 

@@ -255,6 +255,7 @@ private:
     /// pieces), or holding an unresolved piece whose patch has handles the cells do not count,
     /// whose pieces, taken across the whole range and patched from their cells, add up to the
     /// cells' count: its slabs become one, the planes added between are dropped from the graph.
+    /// Only once the cells are counted (mCells).
     void patchWholeRanges(const std::vector<EulerDifference>& missed);
     /// Whether a piece of the slab that no construction fits (Unresolved), patched from its cells,
     /// has handles.

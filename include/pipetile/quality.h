@@ -82,7 +82,10 @@ constexpr double kShortEdgeAspect = 10.0;
 /// voxel at the top level, the T branch's 0.66 at level 2, the twisting C's 0.31; the cone's tip
 /// contour, 0.03 voxel across, against a band 304 voxels long at level 0).
 constexpr double kNeedleReachVoxels = 0.3;
-constexpr double kCollapseAspect = 50.0;
+/// The largest aspect ratio a triangle may have (issue 17's bound): no collapse leaves a triangle
+/// past it worse than the worst it takes away.
+constexpr double kLargestAspect = 100.0;
+constexpr double kCollapseAspect = kLargestAspect / 2.0;
 
 /// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5: by the
 /// Voronoi regions of the corners, edges and face). A triangle of no area that none of the corner
