@@ -93,11 +93,21 @@ std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
 {
     std::vector<std::uint32_t> ring(p.size());
     for (std::uint32_t i = 0; i < ring.size(); ++i) ring[i] = i;
+    // A hole's ring runs clockwise: its turns are measured mirrored, so that its convex corners
+    // are the ears (clipping its reflex ones laid triangles over the material around the hole).
+    double twiceArea = 0.0;
+    for (std::size_t k = 0; k < p.size(); ++k) {
+        const glm::dvec2 &a = p[k], &b = p[(k + 1) % p.size()];
+        twiceArea += a.x * b.y - a.y * b.x;
+    }
+    const double orientation = twiceArea < 0.0 ? -1.0 : 1.0;
     auto cross = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
         const glm::dvec2 u = p[b] - p[a], v = p[c] - p[b];
-        return u.x * v.y - u.y * v.x;
+        return orientation * (u.x * v.y - u.y * v.x);
     };
+    // A copy of a corner (a junction's cut point on a crossing) does not lie inside the ear.
     auto inside = [&](std::uint32_t q, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        if (p[q] == p[a] || p[q] == p[b] || p[q] == p[c]) return false;
         return cross(a, b, q) >= 0.0 && cross(b, c, q) >= 0.0 && cross(c, a, q) >= 0.0;
     };
     std::vector<Triangle> triangles;
@@ -112,9 +122,13 @@ std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
                 best = turn;
                 convexmost = k;
             }
-            if (turn <= 0.0) continue;
+            // A corner with a copy beside it is clipped at once: its triangle has no area to
+            // cover anything, and the ring goes on without the copy (whose zero-length edge
+            // turns neither way, and left no clean ear on either side of it).
+            const bool copy = p[a] == p[b] || p[b] == p[c];
+            if (!copy && turn <= 0.0) continue;
             bool ear = true;
-            for (std::size_t j = 0; j < n && ear; ++j) {
+            for (std::size_t j = 0; j < n && ear && !copy; ++j) {
                 const std::uint32_t q = ring[j];
                 if (q != a && q != b && q != c && inside(q, a, b, c)) ear = false;
             }

@@ -968,6 +968,18 @@ TEST(Graph, ARandomCropOfTheSmokeIsAManifold)
     expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.3, sliced along x: in the plane x = 66 two walls merge into
+// a ring whose hole, under a pixel across, closes at once (a flat cap). A keyhole cuts the ring
+// open, its slit flat in that plane beside the hole. The hole's ring runs clockwise, and its cap's
+// ear clipping took a reflex corner of it for an ear: at level 1 a triangle of the cap lay over
+// the slit's, three edges with four triangles (Euler characteristic 175 against 172; level 0,
+// with fewer crossings on the hole, was right). Ear clipping now follows the ring's turn (caps.h).
+TEST(Graph, AHolesFlatCapBesideAKeyholeLeavesItsSlitAlone)
+{
+    const Volume volume = smokeCrop({29, 75, 63}, {70, 111, 89}, 0.3);
+    expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: the cells count a handle between the voxel
 // planes x = 37 and 38 that spans the planes added there for the events' crotches, so that no
 // slab's patch finds it (Euler characteristic 38 against 36, and a warning). The range's pieces,
