@@ -221,10 +221,10 @@ struct SlicePlane::Impl {
     // between them shows an average of inside and outside, which may decide the other way:
     // - where volumeToMesh joins the inside pair and the plane shows them apart, both pixels are
     //   made inside (barely), so that the walk and the slab see the bridge at every plane between;
-    // - where it joins the outside pair and one of them is a voxel its own plane encloses (its four
-    //   neighbours there inside), the plane must show that voxel's way out, else it is a void of its
-    //   own (the gaffer smoke along z had two): unless the plane shows both pixels outside already,
-    //   both are made as far outside as their outside voxels are. (Barely outside, they made holes
+    // - where it joins the outside pair and one of them is a voxel its own plane encloses (in a
+    //   pocket of a few outside pixels there), the plane must show that voxel's way out, else it
+    //   is a void of its own (the gaffer smoke along z had two): unless the plane shows both
+    //   pixels outside already, both are made as far outside as their outside voxels are. (Barely outside, they made holes
     //   of no area, which the slices drop; parting such pixels where neither voxel is enclosed, and
     //   the face only decides which side closes a loop, lost components along x and z.)
     void showContacts(const std::vector<double>& low, const std::vector<double>& high)
@@ -234,10 +234,23 @@ struct SlicePlane::Impl {
             const bool held = q.x >= 0 && q.y >= 0 && q.x < imageWidth && q.y < imageHeight;
             return held && (plane == 0 ? low : high)[at(q)] < 0.0;
         };
-        // An outside pixel of a plane whose four neighbours there are inside.
+        // An outside pixel of a pocket of its plane: at most kPocket outside pixels, joined along
+        // their edges, that inside pixels there close in (diagonal neighbours aside, as for one
+        // voxel alone). A void of two voxels in each plane, the pairs joined across the planes
+        // along voxel edges, is a void of its own without its way out as much as one voxel is (a
+        // crop of the smoke had three such; pockets joined at corners too parted other crops').
+        constexpr std::size_t kPocket = 4;
         auto enclosed = [&](int plane, const glm::ivec2& q) {
-            return inside(plane, q + glm::ivec2(1, 0)) && inside(plane, q - glm::ivec2(1, 0)) &&
-                   inside(plane, q + glm::ivec2(0, 1)) && inside(plane, q - glm::ivec2(0, 1));
+            std::vector<glm::ivec2> pocket{q};
+            for (std::size_t k = 0; k < pocket.size(); ++k)
+                for (const glm::ivec2 step :
+                     {glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
+                    const glm::ivec2 r = pocket[k] + step;
+                    if (inside(plane, r) || std::find(pocket.begin(), pocket.end(), r) != pocket.end()) continue;
+                    if (pocket.size() == kPocket) return false;
+                    pocket.push_back(r);
+                }
+            return true;
         };
         constexpr double kBarelyInside = -1e-9;
         const bool levelSet = sign > 0.0;

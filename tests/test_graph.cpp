@@ -980,6 +980,18 @@ TEST(Graph, AHolesFlatCapBesideAKeyholeLeavesItsSlitAlone)
     expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.1, sliced along x: three voids of four voxels, two side by
+// side in each of two voxel planes, the pairs joined across the planes along voxel edges. Where
+// planes were added between, the interpolation closed each void's way out, which volumeToMesh
+// opens through those edges; only a single enclosed voxel's was shown open, so each void was two
+// components (97 against 94, with three handles more, Euler characteristic 162 either way). A plane now shows the way out of a
+// pocket of up to four voxels too (slicer.cpp, showContacts).
+TEST(Graph, AVoidOfTwoVoxelPairsJoinedAcrossAVoxelPlaneIsOneComponent)
+{
+    const Volume volume = smokeCrop({57, 20, 33}, {102, 46, 63}, 0.1);
+    expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: the cells count a handle between the voxel
 // planes x = 37 and 38 that spans the planes added there for the events' crotches, so that no
 // slab's patch finds it (Euler characteristic 38 against 36, and a warning). The range's pieces,
