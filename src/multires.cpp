@@ -1303,6 +1303,7 @@ void Reconstruction::closeEnds()
         };
         TubeEnd& farther = reach(tube.top) >= reach(tube.bottom) ? tube.top : tube.bottom;
         farther.fan = farther.hasApex;
+        if (!farther.fan) fanPastTheNextPlane(tube);
     }
     // Any lone contour left without a fan encloses nothing that was found: it is dropped (and
     // counted) rather than meshed as a flat pillow.
@@ -1314,6 +1315,31 @@ void Reconstruction::closeEnds()
                     {Setting::Spacing});
     joinRims();
     joinHolesAroundWalls();
+}
+
+void Reconstruction::fanPastTheNextPlane(Tube& tube) const
+{
+    // The graph counts the lone contour as an object of its own, ending within the slabs on
+    // either side, but the field can go on past the next plane where that plane's image closes
+    // the region (a bridge, slicer.h): a void of one voxel beside a contact volumeToMesh parts,
+    // whose ends the search for an apex did not find within its reach. Dropped, the mesh lost
+    // the component its events count; its apex goes to the middle of a slab the field fills.
+    const auto [s, l] = tube.members.front();
+    const SliceLoop& member = mLoops[s][l];
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    const double sign = tube.hole ? -1.0 : 1.0;
+    if (!(sign * plane.sampleAt(member.view.center, plane.w()) < 0.0)) return;
+    for (const bool top : {false, true}) {
+        const double direction = top ? 1.0 : -1.0;
+        const double room = roomPast(plane.w(), direction);
+        if (!std::isfinite(room)) continue;
+        const double wMiddle = plane.w() + direction * 0.5 * room;
+        if (!(sign * plane.sampleAt(member.view.center, wMiddle) < 0.0)) continue;
+        TubeEnd& end = top ? tube.top : tube.bottom;
+        end.hasApex = end.fan = true;
+        end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wMiddle);
+        return;
+    }
 }
 
 bool Reconstruction::formRim(const Tube& outer, const Tube& hole, bool top) const

@@ -301,6 +301,9 @@ private:
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
     /// false if it added none.
     bool addEndContour(Tube& tube, bool top, bool probeAnyway);
+    /// A lone contour with no apex either side whose region the field fills to the middle of the
+    /// slab past it: that end fans round an apex there, so its object is not dropped.
+    void fanPastTheNextPlane(Tube& tube) const;
     /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus;
     /// a wall around several such holes, by a face with those holes (joinRimFace).
     void joinRims();
