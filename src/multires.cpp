@@ -534,7 +534,7 @@ void Reconstruction::resolveEvents()
                 continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
-            if (piece.kind == EventKind::Rim && !joins) markAroundWall(slab, piece, tubeOf);
+            if (piece.kind == EventKind::Rim && !joins) markRim(slab, piece, tubeOf);
             if (joins || piece.kind == EventKind::Unresolved) {
                 for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.goesOn = true;
                 for (int l : piece.above) mTubes[tubeOf[slab.above][l]].bottom.goesOn = true;
@@ -554,21 +554,31 @@ void Reconstruction::resolveEvents()
     for (const SlabPiece& piece : mGraph.afterLast) mStats.eventEuler += piece.euler();
 }
 
-void Reconstruction::markAroundWall(const ContourGraph::Slab& slab, const SlabPiece& piece,
-                                    const std::vector<std::vector<int>>& tubeOf)
+void Reconstruction::markRim(const ContourGraph::Slab& slab, const SlabPiece& piece,
+                             const std::vector<std::vector<int>>& tubeOf)
 {
-    // A wall and a hole that begin or end together, the hole around the wall: the floor of a
-    // cavity that a post stands in (or its roof). The hole's region ends past the plane and the
-    // wall's goes on, the other way round from a pipe's rim, which closeEnds finds by their apexes;
-    // here the slab says so, and neither end takes end contours that would part them.
+    // A wall and a hole that begin or end together. The hole around the wall: the floor of a
+    // cavity that a post stands in (or its roof); the hole's region ends past the plane and the
+    // wall's goes on, the other way round from a pipe's rim. Either way the slab says so, and
+    // neither end takes end contours that would part them.
     const bool top = piece.above.empty();
     const int s = top ? slab.below : slab.above;
     const std::vector<int>& loops = top ? piece.below : piece.above;
     const SliceLoop &first = mLoops[s][loops[0]], &second = mLoops[s][loops[1]];
     const SliceLoop& hole = first.loop.hole() ? first : second;
     const SliceLoop& wall = first.loop.hole() ? second : first;
-    if (wall.loop.points.empty() || !encloses(hole.loop, wall.loop.points.front())) return;
-    for (int l : loops) (top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom).aroundWall = true;
+    if (wall.loop.points.empty() || hole.loop.points.empty()) return;
+    const bool aroundWall = encloses(hole.loop, wall.loop.points.front());
+    // A pipe's rim, the hole inside its wall: the slab joins the hole's outside past the plane to
+    // the outside around the wall, though the field along the hole's axis may close over it (a
+    // lid). Capped on their own, hole and wall made a sphere where the rim makes a handle (a crop
+    // of the smoke: Euler characteristic 56 against 54).
+    const bool rim = !aroundWall && encloses(wall.loop, hole.loop.points.front());
+    for (int l : loops) {
+        TubeEnd& end = top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom;
+        end.aroundWall = aroundWall;
+        end.rim = rim;
+    }
 }
 
 bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const
@@ -1252,7 +1262,7 @@ void Reconstruction::closeEnds()
                 // halfway instead, under a flat cap.
                 const TubeEnd& end = top ? tube.top : tube.bottom;
                 if (end.goesOn) meetHalfway(tube, top);
-                if (end.joined() || end.goesOn || end.aroundWall) continue;
+                if (end.joined() || end.goesOn || end.aroundWall || end.rim) continue;
                 const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
                 if (!holes && std::any_of(mTubes.begin(), mTubes.end(), rim)) continue;
                 for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
@@ -1265,7 +1275,7 @@ void Reconstruction::closeEnds()
         for (const bool top : {false, true}) {
             const TubeEnd& end = top ? tube.top : tube.bottom;
             const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
-            if (tube.hole || end.hasApex || end.joined() || end.goesOn || end.aroundWall ||
+            if (tube.hole || end.hasApex || end.joined() || end.goesOn || end.aroundWall || end.rim ||
                 std::any_of(mTubes.begin(), mTubes.end(), rim))
                 continue;
             for (int added = 0; added < kMostEndContours && addEndContour(tube, top, true); ++added) {
@@ -1405,7 +1415,7 @@ void Reconstruction::joinRims()
 
 void Reconstruction::joinHolesAroundWalls()
 {
-    // A hole around a wall (markAroundWall): the wall in its plane that it encloses.
+    // A hole around a wall (markRim): the wall in its plane that it encloses.
     for (int h = 0; h < static_cast<int>(mTubes.size()); ++h)
         for (const bool top : {false, true}) {
             const auto endOf = [&](int t) { return top ? mTubes[t].members.back() : mTubes[t].members.front(); };

@@ -37,6 +37,8 @@ struct Reconstruction::TubeEnd {
     int patch = -1;            // the patch this end joins (no cap); -1: none
     bool aroundWall = false;   // a rim whose hole lies around its wall (a post standing in a
                                // cavity, the slab says): no end contours; joinRims pairs it
+    bool rim = false;          // a pipe's rim: its wall and the hole inside it end together, the
+                               // slab says; no end contours, whatever the field past it
     bool goesOn = false;       // the object goes on past it: a piece of the slab that no
                                // construction resolved (its loops are capped one by one)
     double wBound = 0.0;       // how far its end contours and apex may go (closeEnds)

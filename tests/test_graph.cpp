@@ -1007,6 +1007,17 @@ TEST(Graph, AVoidOfOneVoxelThatABridgeClosesIsNotDropped)
     expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.2, sliced along y: two walls merge at y = 152.5 and the
+// contour forks at 153 into a wall and a hole inside it, which end together in the slab above (a
+// rim, the slab says): a ring, a handle. Sought along the hole's axis, the field closed over the
+// hole past the plane (a lid), so hole and wall were capped each on its own: a sphere (Euler
+// characteristic 56 against 54, with no warning). The slab's rim now joins them by an annulus.
+TEST(Graph, ARimTheSlabFindsIsARimWhateverTheFieldAlongTheHole)
+{
+    const Volume volume = smokeCrop({71, 125, 51}, {95, 174, 74}, 0.2);
+    expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: the cells count a handle between the voxel
 // planes x = 37 and 38 that spans the planes added there for the events' crotches, so that no
 // slab's patch finds it (Euler characteristic 38 against 36, and a warning). The range's pieces,

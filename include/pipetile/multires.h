@@ -236,9 +236,9 @@ private:
     void traceSlices();
     void correspond();
     void resolveEvents();
-    /// Marks a Rim piece's wall and hole ends (aroundWall) where the hole lies around the wall.
-    void markAroundWall(const ContourGraph::Slab& slab, const SlabPiece& piece,
-                        const std::vector<std::vector<int>>& tubeOf);
+    /// Marks a Rim piece's wall and hole ends: aroundWall where the hole lies around the wall, rim
+    /// where the wall lies around the hole (a pipe's rim).
+    void markRim(const ContourGraph::Slab& slab, const SlabPiece& piece, const std::vector<std::vector<int>>& tubeOf);
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     /// An n:m piece of walls (n, m >= 2) as a merge into a waist contour in the slab's middle
     /// plane (contour.h, waistAround), then a fork out of it: a genus-0 piece with n + m loops,
@@ -309,7 +309,7 @@ private:
     void joinRims();
     /// Appends a split junction and counts it (its kind, keyhole and saddles); returns its index.
     int addJunction(Junction&& junction);
-    /// The ends markAroundWall marked, each hole's with the wall it encloses, by an annulus.
+    /// The ends markRim marked, each hole's with the wall it encloses, by an annulus.
     void joinHolesAroundWalls();
     /// Joins the two tubes' ends on that side by an annulus (TubeEnd::annulus).
     void joinAnnulus(int wall, int hole, bool top);
