@@ -454,7 +454,13 @@ void Reconstruction::resolveEvents()
     const int first = mGraph.order.front(), last = mGraph.order.back();
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
-    for (const SlabPiece& piece : mGraph.beforeFirst) mStats.eventEuler += piece.euler();
+    for (SlabPiece& piece : mGraph.beforeFirst) {
+        mStats.eventEuler += piece.euler();
+        if (piece.kind == EventKind::Rim)
+            markRim(first, piece.above, false, tubeOf);
+        else if (piece.above.size() > 1)
+            patchPastTheBox(piece, false, tubeOf);
+    }
     // Where the cells count fewer than the pieces between two voxel planes (handles the pieces'
     // 2 - a - b misses, which no cut showed: graph.h), a piece whose patch finds handles is
     // meshed by it, whatever its kind, as long as the range still misses that many: patches
@@ -534,7 +540,12 @@ void Reconstruction::resolveEvents()
                 continue;
             }
             for (int l : piece.above) startTube(slab.above, l);
-            if (piece.kind == EventKind::Rim && !joins) markRim(slab, piece, tubeOf);
+            if (piece.kind == EventKind::Rim && !joins) {
+                if (piece.above.empty())
+                    markRim(slab.below, piece.below, true, tubeOf);
+                else
+                    markRim(slab.above, piece.above, false, tubeOf);
+            }
             if (joins || piece.kind == EventKind::Unresolved) {
                 for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.goesOn = true;
                 for (int l : piece.above) mTubes[tubeOf[slab.above][l]].bottom.goesOn = true;
@@ -551,34 +562,57 @@ void Reconstruction::resolveEvents()
         }
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
-    for (const SlabPiece& piece : mGraph.afterLast) mStats.eventEuler += piece.euler();
+    for (SlabPiece& piece : mGraph.afterLast) {
+        mStats.eventEuler += piece.euler();
+        if (piece.kind == EventKind::Rim)
+            markRim(last, piece.below, true, tubeOf);
+        else if (piece.below.size() > 1)
+            patchPastTheBox(piece, true, tubeOf);
+    }
 }
 
-void Reconstruction::markRim(const ContourGraph::Slab& slab, const SlabPiece& piece,
+void Reconstruction::markRim(int s, const std::vector<int>& loops, bool top,
                              const std::vector<std::vector<int>>& tubeOf)
 {
-    // A wall and a hole that begin or end together. The hole around the wall: the floor of a
-    // cavity that a post stands in (or its roof); the hole's region ends past the plane and the
-    // wall's goes on, the other way round from a pipe's rim. Either way the slab says so, and
-    // neither end takes end contours that would part them.
-    const bool top = piece.above.empty();
-    const int s = top ? slab.below : slab.above;
-    const std::vector<int>& loops = top ? piece.below : piece.above;
-    const SliceLoop &first = mLoops[s][loops[0]], &second = mLoops[s][loops[1]];
-    const SliceLoop& hole = first.loop.hole() ? first : second;
-    const SliceLoop& wall = first.loop.hole() ? second : first;
-    if (wall.loop.points.empty() || hole.loop.points.empty()) return;
-    const bool aroundWall = encloses(hole.loop, wall.loop.points.front());
-    // A pipe's rim, the hole inside its wall: the slab joins the hole's outside past the plane to
-    // the outside around the wall, though the field along the hole's axis may close over it (a
-    // lid). Capped on their own, hole and wall made a sphere where the rim makes a handle (a crop
-    // of the smoke: Euler characteristic 56 against 54).
-    const bool rim = !aroundWall && encloses(wall.loop, hole.loop.points.front());
+    // A wall and holes that begin or end together. A hole around the wall: the floor of a cavity
+    // that a post stands in (or its roof); the hole's region ends past the plane and the wall's
+    // goes on, the other way round from a pipe's rim. Holes inside the wall: a pipe's rim, the
+    // slab joining each hole's outside past the plane to the outside around the wall, though the
+    // field along a hole's axis may close over it (a lid). Either way the slab says so, and no
+    // end takes end contours that would part them: capped on their own, hole and wall made a
+    // sphere where the rim makes a handle (crops of the smoke: Euler characteristic 56 against 54
+    // in one, 100 against 92 in another whose last plane held a wall and five holes).
+    std::vector<int> walls, holes;
+    for (int l : loops) (mLoops[s][l].loop.hole() ? holes : walls).push_back(l);
+    if (walls.size() != 1 || holes.empty()) return;
+    const BoundaryLoop& wall = mLoops[s][walls[0]].loop;
+    if (wall.points.empty()) return;
+    const auto inWall = [&](int h) {
+        const BoundaryLoop& hole = mLoops[s][h].loop;
+        return !hole.points.empty() && encloses(wall, hole.points.front());
+    };
+    const bool aroundWall = holes.size() == 1 && encloses(mLoops[s][holes[0]].loop, wall.points.front());
+    const bool rim = !aroundWall && std::all_of(holes.begin(), holes.end(), inWall);
     for (int l : loops) {
         TubeEnd& end = top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom;
         end.aroundWall = aroundWall;
         end.rim = rim;
     }
+}
+
+void Reconstruction::patchPastTheBox(SlabPiece& piece, bool top, const std::vector<std::vector<int>>& tubeOf)
+{
+    // Contours of the first or last plane that join past it, between it and the empty plane past
+    // the grid's box (a plane there stops up to a voxel short of the box): capped each on its own,
+    // they were separate objects (a crop of the smoke: two walls of its last plane, 100, joined
+    // at 101 around a handle, Euler characteristic 112 against 108). Their piece is meshed from
+    // its cells out to that empty plane, as a face the box cuts is (patchFace).
+    const int s = top ? mGraph.order.back() : mGraph.order.front();
+    std::optional<SlabPatch> surface = std::move(patchesOf(top ? s : -1, top ? -1 : s, {&piece}).front());
+    if (!surface) return;
+    const int id = addPatch(top ? s : -1, top ? -1 : s, piece, std::move(*surface));
+    for (int l : top ? piece.below : piece.above)
+        (top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom).patch = id;
 }
 
 bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const
@@ -1303,7 +1337,7 @@ void Reconstruction::closeEnds()
     // apex anyway. A fold there is smaller than the speck; leaving it out costs a component.
     const auto lone = [](const Tube& t) {
         return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined() &&
-               !t.bottom.aroundWall && !t.top.aroundWall;
+               !t.bottom.aroundWall && !t.top.aroundWall && !t.bottom.rim && !t.top.rim;
     };
     for (Tube& tube : mTubes) {
         if (!lone(tube)) continue;

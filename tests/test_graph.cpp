@@ -1018,6 +1018,33 @@ TEST(Graph, ARimTheSlabFindsIsARimWhateverTheFieldAlongTheHole)
     expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.1, sliced along x: its last plane, 72, a voxel short of the
+// box, holds a wall and five holes open past it (dimples in the face the box cuts: a Rim piece
+// out to the empty plane past the box). Along their axes the field closed over four of them (a
+// lid each), so only one joined the wall and four were voids of their own (Euler characteristic
+// 100 against 92, 77 components against 74). The piece now marks them all as the wall's rim, and
+// the wall is a face with five holes.
+TEST(Graph, HolesOpenPastTheLastPlaneAreTheWallsRimWhateverTheirAxes)
+{
+    const Volume volume = smokeCrop({32, 24, 48}, {73, 57, 75}, 0.1);
+    expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
+}
+
+// A random crop of the smoke at iso 0.1, sliced along z: walls of the last plane, 100, join past
+// it, before the box ends at 101, around a handle: two pieces of several walls against the empty
+// plane past the box. Capped each on its own, they were separate objects (Euler characteristic
+// 112 against 108, 60 components against 59). Such a piece is now meshed from its cells out to
+// that empty plane (patchPastTheBox).
+TEST(Graph, ContoursOfTheLastPlaneThatJoinPastItArePatchedToTheBox)
+{
+    const Volume volume = smokeCrop({60, 85, 80}, {109, 113, 101}, 0.1);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    EXPECT_GE(reconstruction.stats().patches, 2); // the one in its range, and at least one past the box
+    expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: the cells count a handle between the voxel
 // planes x = 37 and 38 that spans the planes added there for the events' crotches, so that no
 // slab's patch finds it (Euler characteristic 38 against 36, and a warning). The range's pieces,

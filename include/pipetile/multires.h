@@ -236,9 +236,14 @@ private:
     void traceSlices();
     void correspond();
     void resolveEvents();
-    /// Marks a Rim piece's wall and hole ends: aroundWall where the hole lies around the wall, rim
-    /// where the wall lies around the hole (a pipe's rim).
-    void markRim(const ContourGraph::Slab& slab, const SlabPiece& piece, const std::vector<std::vector<int>>& tubeOf);
+    /// Marks the ends, at plane s (`top`: the tubes' top ends), of a Rim piece's loops there (a
+    /// wall and holes): aroundWall where its one hole lies around the wall, rim where its holes
+    /// lie inside the wall (a pipe's rim, a face the grid's box cuts).
+    void markRim(int s, const std::vector<int>& loops, bool top, const std::vector<std::vector<int>>& tubeOf);
+    /// Joins the first plane's (`top`: the last plane's) contours that a piece past it holds by
+    /// that piece's patch, meshed from its cells out to the empty plane past the grid's box; they
+    /// stay capped one by one where its cells do not close.
+    void patchPastTheBox(SlabPiece& piece, bool top, const std::vector<std::vector<int>>& tubeOf);
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
     /// An n:m piece of walls (n, m >= 2) as a merge into a waist contour in the slab's middle
     /// plane (contour.h, waistAround), then a fork out of it: a genus-0 piece with n + m loops,
