@@ -607,9 +607,12 @@ void Reconstruction::patchPastTheBox(SlabPiece& piece, bool top, const std::vect
     // they were separate objects (a crop of the smoke: two walls of its last plane, 100, joined
     // at 101 around a handle, Euler characteristic 112 against 108). Their piece is meshed from
     // its cells out to that empty plane, as a face the box cuts is (patchFace).
+    // A patch that finds a handle the labelling lacks is left out: past the plane, where no cut
+    // refines the labelling, the cells' count did not confirm one (a crop along y: Euler
+    // characteristic 2 against the isosurface's 6, 8 with the contours capped).
     const int s = top ? mGraph.order.back() : mGraph.order.front();
     std::optional<SlabPatch> surface = std::move(patchesOf(top ? s : -1, top ? -1 : s, {&piece}).front());
-    if (!surface) return;
+    if (!surface || surface->euler != piece.euler()) return;
     const int id = addPatch(top ? s : -1, top ? -1 : s, piece, std::move(*surface));
     for (int l : top ? piece.below : piece.above)
         (top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom).patch = id;
