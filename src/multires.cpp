@@ -452,15 +452,21 @@ void Reconstruction::resolveEvents()
     };
     if (mGraph.order.empty()) return;
     const int first = mGraph.order.front(), last = mGraph.order.back();
+    // The pieces out to the empty plane past the box: a wall and holes ending there are a rim; a
+    // piece joining several contours is patched where its cells close; the rest are ends.
+    const auto resolvePastTheBox = [&](std::vector<SlabPiece>& past, bool top) {
+        for (SlabPiece& piece : past) {
+            mStats.eventEuler += piece.euler();
+            const std::vector<int>& loops = top ? piece.below : piece.above;
+            if (piece.kind == EventKind::Rim)
+                markRim(top ? last : first, loops, top, tubeOf);
+            else if (loops.size() > 1)
+                patchPastTheBox(piece, top, tubeOf);
+        }
+    };
     for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
     mStats.starts += static_cast<int>(mLoops[first].size());
-    for (SlabPiece& piece : mGraph.beforeFirst) {
-        mStats.eventEuler += piece.euler();
-        if (piece.kind == EventKind::Rim)
-            markRim(first, piece.above, false, tubeOf);
-        else if (piece.above.size() > 1)
-            patchPastTheBox(piece, false, tubeOf);
-    }
+    resolvePastTheBox(mGraph.beforeFirst, false);
     // Where the cells count fewer than the pieces between two voxel planes (handles the pieces'
     // 2 - a - b misses, which no cut showed: graph.h), a piece whose patch finds handles is
     // meshed by it, whatever its kind, as long as the range still misses that many: patches
@@ -562,13 +568,7 @@ void Reconstruction::resolveEvents()
         }
     }
     mStats.ends += static_cast<int>(mLoops[last].size());
-    for (SlabPiece& piece : mGraph.afterLast) {
-        mStats.eventEuler += piece.euler();
-        if (piece.kind == EventKind::Rim)
-            markRim(last, piece.below, true, tubeOf);
-        else if (piece.below.size() > 1)
-            patchPastTheBox(piece, true, tubeOf);
-    }
+    resolvePastTheBox(mGraph.afterLast, true);
 }
 
 void Reconstruction::markRim(int s, const std::vector<int>& loops, bool top,

@@ -224,9 +224,10 @@ struct SlicePlane::Impl {
     // - where it joins the outside pair and one of them is a voxel its own plane encloses (in a
     //   pocket of a few outside pixels there), the plane must show that voxel's way out, else it
     //   is a void of its own (the gaffer smoke along z had two): unless the plane shows both
-    //   pixels outside already, both are made as far outside as their outside voxels are. (Barely outside, they made holes
-    //   of no area, which the slices drop; parting such pixels where neither voxel is enclosed, and
-    //   the face only decides which side closes a loop, lost components along x and z.)
+    //   pixels outside already, both are made as far outside as their outside voxels are.
+    //   (Barely outside, they made holes of no area, which the slices drop; parting such pixels
+    //   where neither voxel is enclosed, and the face only decides which side closes a loop, lost
+    //   components along x and z.)
     void showContacts(const std::vector<double>& low, const std::vector<double>& high)
     {
         auto at = [&](const glm::ivec2& q) { return static_cast<std::size_t>(q.y) * imageWidth + q.x; };

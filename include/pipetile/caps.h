@@ -33,8 +33,9 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
 
 /// Triangulates a simple polygon by ear clipping: m - 2 triangles, turning as the polygon does
 /// (counterclockwise, or clockwise for a hole's ring). Points that are copies of one another (a
-/// junction's cut point on a crossing) may touch. Where rounding leaves no clean ear (a nearly degenerate polygon),
-/// the most convex corner is clipped anyway, so the count, and the closed mesh, never depend on it.
+/// junction's cut point on a crossing) may touch. Where rounding leaves no clean ear (a nearly
+/// degenerate polygon), the most convex corner is clipped anyway, so the count, and the closed
+/// mesh, never depend on it.
 std::vector<Triangle> earClip(const std::vector<glm::dvec2>& polygon);
 
 } // namespace pipetile
