@@ -1045,6 +1045,17 @@ TEST(Graph, ContoursOfTheLastPlaneThatJoinPastItArePatchedToTheBox)
     expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.2, sliced along z: the box cuts a ring at its first plane,
+// 55, and a keyhole cuts the ring open there towards the branches above. The keyhole's slit lay
+// flat in the plane over the annulus that closed the ring's material below, and its polygon had
+// no triangulation without a diagonal the annulus had too: at level 0 an edge with four
+// triangles (Euler characteristic 65 against 64). The cut face is meshed from its cells now.
+TEST(Graph, AKeyholesSlitAtACutFaceLiesOverNoAnnulus)
+{
+    const Volume volume = smokeCrop({24, 83, 55}, {50, 104, 94}, 0.2);
+    expectEveryLevelAs(volume, Axis::Z, checkTopology(isosurface(volume, 0.0)));
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: the cells count a handle between the voxel
 // planes x = 37 and 38 that spans the planes added there for the events' crotches, so that no
 // slab's patch finds it (Euler characteristic 38 against 36, and a warning). The range's pieces,
