@@ -236,6 +236,23 @@ void warnIfHandlesMissed(const Volume& volume, const json& report, const Notify&
                   listed ? "; the two counts part between index " : "", where.c_str()));
 }
 
+// The constructions' own sum (caps less saddles, and the patches') is the mesh's Euler
+// characteristic; where it differs from the slab pieces' sum though every piece was resolved, some
+// piece was closed otherwise than it counts (contours capped one by one where the slab joins them
+// past the box, and the patch found a handle the labelling lacks), and the user is told.
+void warnIfBuiltDiffers(const Volume& volume, const ReconstructionStats& stats, const json& report,
+                        const Notify& notify)
+{
+    const json& events = report["events"];
+    const long long slabs = events["euler"].get<long long>(), built = events["built_euler"].get<long long>();
+    if (slabs == built || stats.unresolvedEvents + stats.unresolvedJunctions > 0) return; // warned of already
+    notify("warning",
+           format("grid '%s': the mesh's Euler characteristic is %lld where its slab pieces count %lld: some "
+                  "piece was closed contour by contour where the slab joins its contours (see the "
+                  "report's events and graph; --validate compares the topologies)",
+                  volume.gridName().c_str(), built, slabs));
+}
+
 } // namespace
 
 json meshFrame(const FrameJob& job)
@@ -296,6 +313,7 @@ json meshFrame(const FrameJob& job)
 
     json report = meshReport(volume, reconstruction);
     warnIfHandlesMissed(volume, report, job.notify);
+    warnIfBuiltDiffers(volume, reconstruction.stats(), report, job.notify);
     for (const LevelMesh& level : levels) {
         // The level's own topology is a linear pass over its triangles: only when a report is asked for.
         report["levels"].push_back(levelReport(level, !job.report.empty() || !job.html.empty()));
