@@ -168,6 +168,27 @@ void mergeShortestRuns(std::vector<OwnerRun>& runs, const Done& done)
     }
 }
 
+// Whether run k is a bud: its partner's only run, between two runs of one other partner that
+// has more (a speck budding from a body's side where the body meets another across a neck).
+bool isBud(const std::vector<OwnerRun>& runs, const std::vector<int>& runsOf, std::size_t k)
+{
+    const std::size_t m = runs.size();
+    const int previous = runs[(k + m - 1) % m].owner, next = runs[(k + 1) % m].owner, own = runs[k].owner;
+    return runsOf[own] == 1 && previous == next && previous != own && runsOf[previous] >= 2;
+}
+
+// The runs' owners in order with the buds left out and the runs they parted joined: the bodies
+// that meet across the junction's neck.
+std::vector<int> bodiesBesideBuds(const std::vector<OwnerRun>& runs, const std::vector<int>& runsOf)
+{
+    std::vector<int> bodies;
+    for (std::size_t k = 0; k < runs.size(); ++k)
+        if (!isBud(runs, runsOf, k) && (bodies.empty() || bodies.back() != runs[k].owner))
+            bodies.push_back(runs[k].owner);
+    if (bodies.size() > 1 && bodies.front() == bodies.back()) bodies.pop_back();
+    return bodies;
+}
+
 } // namespace
 
 const char* toString(EventKind kind)
@@ -1227,19 +1248,33 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
     // across those chords). Specks budding from a body at two necks, made one arc each, gave one
     // speck a stretch of the body's boundary, and its band crossed the body (the smoke: 1.8
     // voxels inside).
-    auto valid = [&](const std::vector<OwnerRun>& r) {
-        if (onePerOwner(r)) return true;
+    // A third way: specks budding from the bodies beside the neck (the smoke: a merge of two
+    // bodies, each with a speck on its side, gave one body's part a stretch of the other's
+    // boundary, 1.6 voxels off). Each bud closes by its own chord, and the bodies' arcs, joined
+    // across them, meet at the hub.
+    auto withBuds = [&](const std::vector<OwnerRun>& r) {
+        const std::vector<int> count = arcsPerOwner(r);
+        const std::vector<int> bodies = bodiesBesideBuds(r, count);
+        std::vector<int> seen(n, 0);
+        for (int owner : bodies) ++seen[owner];
+        return bodies.size() >= 2 && std::all_of(seen.begin(), seen.end(), [](int k) { return k <= 1; }) &&
+               std::all_of(count.begin(), count.end(), [](int k) { return k >= 1; });
+    };
+    auto oneOwnsSeveral = [&](const std::vector<OwnerRun>& r) {
         const std::vector<int> count = arcsPerOwner(r);
         const int several = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
         return count[several] >= 2 && std::count(count.begin(), count.end(), 1) == n - 1;
     };
+    auto valid = [&](const std::vector<OwnerRun>& r) { return onePerOwner(r) || oneOwnsSeveral(r) || withBuds(r); };
     mergeShortestRuns(runs, valid);
     if (runs.empty() || !valid(runs)) return false;
-    arcs.hubbed = onePerOwner(runs);
     std::sort(runs.begin(), runs.end(), [](const OwnerRun& a, const OwnerRun& b) { return a.start < b.start; });
-    for (const OwnerRun& r : runs) {
-        arcs.cuts.push_back(r.start);
-        arcs.owner.push_back(r.owner);
+    arcs.hubbed = onePerOwner(runs) || !oneOwnsSeveral(runs);
+    const std::vector<int> count = arcsPerOwner(runs);
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+        arcs.cuts.push_back(runs[k].start);
+        arcs.owner.push_back(runs[k].owner);
+        if (arcs.hubbed && isBud(runs, count, k)) arcs.buds.push_back(static_cast<int>(k));
     }
     return true;
 }

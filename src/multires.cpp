@@ -820,32 +820,44 @@ bool Reconstruction::splitJunction(Junction& junction) const
         addNode(point, wSaddle);
     };
     const std::size_t n = junction.cuts.size();
-    if (junction.hubbed && !ring) {
-        glm::dvec2 hub(0.0);
-        for (int cut : junction.cuts) hub += single[cut] / static_cast<double>(n);
-        addSaddleNode(hub);
-        composeParts(junction);
-        return true;
-    }
-    junction.hubbed = false;
-    std::vector<int> arcs(junction.many.size(), 0);
-    for (int owner : junction.owner) ++arcs[owner];
-    for (std::size_t a = 0; a < n; ++a) {
-        // A ring's chord k + 1 runs from the wall's cut k + 1 to the hole's; a gap's from cut a + 1
-        // back to cut a.
-        if (!ring && arcs[junction.owner[a]] != 1) continue;
+    // A ring's chord k + 1 runs from the wall's cut k + 1 to the hole's; a gap's (or a bud's) from
+    // cut a + 1 back to cut a.
+    auto addChord = [&](std::size_t a) {
         const std::size_t b = (a + 1) % n;
         junction.chordArcs.push_back(static_cast<int>(a));
         if (ring) {
             addSaddleNode(0.5 * (single[junction.cuts[b]] + (*inner)[junction.innerCuts[b]]));
-            continue;
+            return;
         }
         const bool reversed =
             mLoops[junction.many[junction.owner[a]].first][junction.many[junction.owner[a]].second].loop.hole() !=
                 mLoops[junction.single.first][junction.single.second].loop.hole() &&
             junction.kind != EventKind::Rim;
         addSaddleNode(gapMiddle(single, junction.cuts[a], junction.cuts[b], reversed ? -1.0 : 1.0));
+    };
+    if (junction.hubbed && !ring) {
+        // The buds' chords, then the hub amid the cuts where two bodies' arcs meet (every cut
+        // where there are no buds).
+        for (int a : junction.buds) addChord(static_cast<std::size_t>(a));
+        const auto bud = [&](std::size_t a) {
+            return std::find(junction.buds.begin(), junction.buds.end(), static_cast<int>(a)) != junction.buds.end();
+        };
+        glm::dvec2 hub(0.0);
+        int meets = 0;
+        for (std::size_t a = 0; a < n; ++a)
+            if (!bud(a) && !bud((a + n - 1) % n)) {
+                hub += single[junction.cuts[a]];
+                ++meets;
+            }
+        addSaddleNode(hub / static_cast<double>(meets));
+        composeParts(junction);
+        return true;
     }
+    junction.hubbed = false;
+    std::vector<int> arcs(junction.many.size(), 0);
+    for (int owner : junction.owner) ++arcs[owner];
+    for (std::size_t a = 0; a < n; ++a)
+        if (ring || arcs[junction.owner[a]] == 1) addChord(a);
     composeParts(junction);
     return true;
 }
@@ -865,6 +877,7 @@ void Reconstruction::composeParts(Junction& junction) const
     const bool ring = inner && !keyhole.open();
     const std::size_t n = junction.cuts.size();
     const int firstMiddle = static_cast<int>(junction.nodeOn.size());
+    const int hub = firstMiddle + static_cast<int>(junction.chordArcs.size()); // if hubbed
     auto middleOf = [&](std::size_t a) { // the node of the chord closing arc a, or -1
         const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
         return at == junction.chordArcs.end() ? -1 : firstMiddle + static_cast<int>(at - junction.chordArcs.begin());
@@ -898,23 +911,26 @@ void Reconstruction::composeParts(Junction& junction) const
                 appendNode(part, middleOf(a));
                 appendArc(part, 1, junction.innerCuts[b], junction.innerCuts[a], -1);
                 appendNode(part, middleOf((a + n - 1) % n));
-            } else if (!junction.hubbed) {
+            } else {
                 const int own = middleOf(a);
                 if (own >= 0) {
                     appendNode(part, own); // its own chord, back to its first cut
                     continue;
                 }
-                // The several's arc: across the chords of the arcs up to its next one, through the
-                // cuts between them.
+                // The several's arc (or a body's): across the chords of the arcs up to its next
+                // one, through the cuts between them; up to another body's arc, to the hub.
                 for (std::size_t c = b; junction.owner[c] != static_cast<int>(k); c = (c + 1) % n) {
                     const std::size_t next = (c + 1) % n;
+                    if (middleOf(c) < 0) {
+                        appendNode(part, hub);
+                        break;
+                    }
                     appendNode(part, middleOf(c));
                     if (junction.owner[next] != static_cast<int>(k))
                         appendArc(part, 0, junction.cuts[next], junction.cuts[next], 1);
                 }
             }
         }
-        if (junction.hubbed) appendNode(part, firstMiddle);
         const SliceLoop& partner = mLoops[junction.many[k].first][junction.many[k].second];
         if (partner.loop.hole() != singleHole && !rim) std::reverse(part.corners.begin(), part.corners.end());
         for (const Part::Corner& c : part.corners)

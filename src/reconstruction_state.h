@@ -59,19 +59,19 @@ struct Reconstruction::Junction : JunctionArcs {
     std::pair<int, int> single{-1, -1};    // (plane, loop)
     std::pair<int, int> inner{-1, -1};     // a ring's hole inside `single`, or none
     std::vector<std::pair<int, int>> many; // the partners: arc k goes to many[owner[k]]
-    std::vector<int> chordArcs;            // no hub: the arcs a chord closes (a gap's
+    std::vector<int> chordArcs;            // the arcs a chord closes (a gap's, a bud's
                                            // arc; for a ring every arc, closed from cut
                                            // k + 1 of the wall to the hole's, and back)
     Keyhole keyhole;                       // a ring cut open: `cuts` index its composite
                                            // contour, which stands for `single` (graph.h)
     // Nodes: the junction's own vertices, the same at every level: first those on the single
     // contour or its hole (nodeOn), the cuts (node k), the hole's cuts (node n + k) or a
-    // keyhole's slit ends not already cuts; then the hub (where the chords from the cuts meet:
-    // their mean) or the chords' middles, in chordArcs' order. Hub and middles start in the
-    // single contour's plane and move along the axis toward the partners onto the surface (the
-    // crotch), if they get there; a chord never joins two cuts directly, so no cap of the same
-    // contour can share its edge (a slit's crossings join a wall and its hole, which no cap
-    // does).
+    // keyhole's slit ends not already cuts; then the chords' middles, in chordArcs' order, and
+    // the hub if there is one (where the chords from the cuts between bodies meet: their mean).
+    // Hub and middles start in the single contour's plane and move along the axis toward the
+    // partners onto the surface (the crotch), if they get there; a chord never joins two cuts
+    // directly, so no cap of the same contour can share its edge (a slit's crossings join a wall
+    // and its hole, which no cap does).
     std::vector<glm::dvec2> nodePoints;      // in-plane
     std::vector<glm::dvec3> nodeIndex;       // index space
     std::vector<std::pair<int, int>> nodeOn; // per node on a contour: (0, point of `single`)

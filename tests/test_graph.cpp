@@ -394,6 +394,44 @@ TEST(Graph, ABranchTouchingAtOnePointKeepsItsArc)
     EXPECT_EQ(arcs.cuts[owns - arcs.owner.begin()], 10); // the point at 90 degrees starts its arc
 }
 
+// Two bodies meet across a neck, and each has a speck budding from its side (Gaffer's smoke: a
+// merge at y = 15 where such specks made one body's part take a stretch of the other's
+// boundary, 1.6 voxels off). The single contour is an ellipse (20 x 6, 80 points) over circles of
+// radius 4.5 at x = -10 and 10; the specks, circles of radius 0.6, sit on its top left and bottom
+// right. The owners' runs are left, speck, left, right, speck, right: each body owns two runs,
+// which no partner may in a hub or a C. Each speck closes by its own chord, and the bodies meet at
+// the hub: every point stays with the partner nearest it.
+TEST(Graph, SpecksBuddingBesideANeckCloseByTheirOwnChords)
+{
+    const std::vector<glm::dvec2> single = circle({0.0, 0.0}, 20.0, 6.0, 80);
+    const std::vector<glm::dvec2> left = circle({-10.0, 0.0}, 4.5, 4.5, 32), right = circle({10.0, 0.0}, 4.5, 4.5, 32),
+                                  top = circle({-10.0, 6.0}, 0.6, 0.6, 8), bottom = circle({10.0, -6.0}, 0.6, 0.6, 8);
+    const std::vector<const std::vector<glm::dvec2>*> partners{&left, &right, &top, &bottom};
+    JunctionArcs arcs;
+    ASSERT_TRUE(splitIntoArcs(single, nullptr, partners, arcs));
+    EXPECT_TRUE(arcs.hubbed);
+    ASSERT_EQ(arcs.cuts.size(), 6u);
+    ASSERT_EQ(arcs.buds.size(), 2u);
+    std::vector<int> budOwners;
+    for (int a : arcs.buds) budOwners.push_back(arcs.owner[static_cast<std::size_t>(a)]);
+    std::sort(budOwners.begin(), budOwners.end());
+    EXPECT_EQ(budOwners, (std::vector<int>{2, 3}));
+    const auto nearest = [&](const glm::dvec2& p) {
+        int best = -1;
+        double distance = std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < partners.size(); ++k)
+            for (const glm::dvec2& q : *partners[k])
+                if (glm::distance(p, q) < distance) {
+                    distance = glm::distance(p, q);
+                    best = static_cast<int>(k);
+                }
+        return best;
+    };
+    for (std::size_t a = 0; a < arcs.cuts.size(); ++a)
+        for (int i = arcs.cuts[a]; i != arcs.cuts[(a + 1) % arcs.cuts.size()]; i = (i + 1) % 80)
+            EXPECT_EQ(nearest(single[static_cast<std::size_t>(i)]), arcs.owner[a]) << "point " << i;
+}
+
 TEST(Graph, TwistingCStaysOneTube)
 {
     // The C turning 15 degrees per voxel: its centroid lies in the gap, its central point on the

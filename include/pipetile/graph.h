@@ -179,13 +179,16 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
 /// cyclically) and goes to partner owner[k].
 struct JunctionArcs {
     std::vector<int> cuts, owner;
-    bool hubbed = true;         // every partner owns one arc: the arcs close through a hub (a
-                                // fork); else one partner owns several arcs and the others one
+    bool hubbed = true;         // every partner owns one arc (buds aside): the arcs close through
+                                // a hub (a fork); else one partner owns several arcs and the others one
                                 // each (a C whose gaps close around holes, lobes budding from a
                                 // body): chords across the others' arcs close them and join the
                                 // several's
     std::vector<int> innerCuts; // a ring's hole, split the same way: its arc k (from innerCuts[k]
                                 // to innerCuts[k + 1]) also goes to owner[k]
+    std::vector<int> buds;      // hubbed: the arcs of specks budding from a body beside the hub
+                                // (a partner's one arc between two of another's); each closes by
+                                // its own chord, and the body's arcs join across it
 };
 
 /// Splits `single` (and, for a ring, the hole `inner` inside it; null otherwise) into arcs by
