@@ -1138,7 +1138,8 @@ bool Reconstruction::sectionChanged(const SliceLoop& before, const SliceLoop& lo
     return depth(before.view.center) >= depth(travelled);
 }
 
-std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int l, bool hole, double w)
+std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int l, bool hole, double w,
+                                                                      const std::pair<int, int>& onGraph)
 {
     const SliceLoop& member = mLoops[s][l];
     std::vector<BoundaryLoop> loops = traceBoundaries(SlicePlane(mVolume, mPlan, w));
@@ -1153,7 +1154,7 @@ std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int
             return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
                    (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
                     overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
-                   !sharedWithOthers(s, l, candidate);
+                   !sharedWithOthers(onGraph.first, onGraph.second, candidate);
         });
     if (best < 0) return std::nullopt;
     // Its own central point, from which the apex is highest on a rounded end; but where
@@ -1274,10 +1275,18 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // degrees of turn in one step, was 1.07 voxels off).
     double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
     if (step < 0.25) return false;
-    std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step);
+    // An end contour's plane holds it alone: the loops it must keep off are those of the tube's
+    // last plane of the graph (the smoke at iso 0.1: a speck's second end contour took a ring of
+    // 1698 pixels around another object's hole, capped flat 5.7 voxels off the surface).
+    std::pair<int, int> onGraph{s, l};
+    for (std::size_t k = 0; k < tube.members.size(); ++k) {
+        onGraph = tube.members[top ? tube.members.size() - 1 - k : k];
+        if (std::find(mGraph.order.begin(), mGraph.order.end(), onGraph.first) != mGraph.order.end()) break;
+    }
+    std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph);
     while (endLoop && step > 0.5 &&
            misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister) {
-        std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step);
+        std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step, onGraph);
         if (!closer) break;
         endLoop = std::move(closer);
         step *= 0.5;

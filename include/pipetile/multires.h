@@ -328,8 +328,10 @@ private:
     /// Whether the wall `outer` and `hole` end in one plane on that side as a pipe's open rim.
     bool formRim(const Tube& outer, const Tube& hole, bool top) const;
     /// The contour on plane w that continues loop l of plane s past its tube's end, centred as a
-    /// band to it pairs best; none if no loop there overlaps it and no other loop of plane s.
-    std::optional<SliceLoop> endContourAt(int s, int l, bool hole, double w);
+    /// band to it pairs best; none if no loop there overlaps it and no other loop of the plane of
+    /// `onGraph` (the tube's end contour on a plane of the graph: s and l, or those of an end
+    /// contour before).
+    std::optional<SliceLoop> endContourAt(int s, int l, bool hole, double w, const std::pair<int, int>& onGraph);
     /// Whether `candidate` overlaps a loop of plane s other than l (of its kind): the slab keeps
     /// those on other pieces than l's, so it is no end contour of l's tube.
     bool sharedWithOthers(int s, int l, const BoundaryLoop& candidate) const;
