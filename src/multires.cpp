@@ -533,6 +533,15 @@ void Reconstruction::resolveEvents()
                 mJunctions.push_back(std::move(fork));
                 continue;
             }
+            // A fork or merge whose slab stayed thicker than the events' thickness (a plane
+            // between voxel planes showed other pieces) is meshed from its cells where they close.
+            if (joins && mPositions[slab.above] - mPositions[slab.below] > kEventThickness) {
+                if (!patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+                if (patch && patch->euler == piece.euler()) {
+                    joinPatch(slab, piece, std::move(*patch));
+                    continue;
+                }
+            }
             Junction junction;
             if (joins && makeJunction(slab, piece, junction)) {
                 const int id = addJunction(std::move(junction));

@@ -1251,6 +1251,31 @@ TEST(Graph, AnEndContourPastAnotherKeepsOffOtherObjects)
     EXPECT_EQ(v.topology.euler, checkTopology(isosurface(volume, 0.0)).euler);
 }
 
+// A crop of the smoke at iso 0.1, sliced along y: at y = 153 a contour forks into six partners a
+// voxel above, and the plane between showed other pieces than the voxel planes' cells, so the
+// slab stayed a voxel thick. An arm of the contour that ends inside the slab went to one part, and
+// its partner's band fanned to it 12 pixels off, 2.8 voxels from the isosurface. A fork or merge
+// whose slab stays thicker than the events' half voxel is meshed from its cells: every junction
+// left joins contours at most half a voxel apart. The bound on the top level is the crop's known
+// gap, as above.
+TEST(Graph, AJunctionInASlabTooThickForItIsMeshedFromItsCells)
+{
+    const Volume volume = smokeCrop({50, 146, 50}, {95, 160, 95}, 0.1);
+    MeshOptions options;
+    options.slicing.axis = Axis::Y;
+    const Reconstruction reconstruction(volume, options);
+    const Skeleton skeleton = reconstruction.skeleton();
+    for (const Skeleton::Junction& junction : skeleton.junctions)
+        for (const int p : junction.partners) {
+            const Skeleton::Segment& partner = skeleton.segments[static_cast<std::size_t>(p)];
+            const double w = junction.kind == EventKind::Merge ? partner.wLast : partner.wFirst;
+            EXPECT_LE(std::abs(w - junction.w), 0.5) << "junction at w = " << junction.w;
+        }
+    const Validation v = Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 2.0);
+    EXPECT_EQ(v.topology.euler, checkTopology(isosurface(volume, 0.0)).euler);
+}
+
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
 {
     // The check the tool warns by (Cli.WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss): on trees whose
