@@ -3,11 +3,15 @@
 #include <pipetile/caps.h>
 
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <limits>
+#include <utility>
+#include <vector>
 
 namespace pipetile {
 
@@ -36,6 +40,74 @@ double apexBetween(const SlicePlane& plane, const glm::dvec2& point, double dire
         (sign * plane.sampleAt(point, w0 + direction * mid) < 0.0 ? lo : hi) = mid;
     }
     return w0 + direction * 0.5 * (lo + hi);
+}
+
+// Lawson's flips inside the polygon: a diagonal shared by two triangles that form a convex
+// quadrilateral gives way to the other diagonal where that makes the thinner of the two
+// triangles fatter (longest edge squared over area, as the reports' aspect ratio). Ear clipping
+// takes the first ear along the ring, and where points lie nearly on a line (a patch's along a
+// loop, crossings along a straight contour) those ears are needles that flips turn into fans
+// from the far side (aspect 130 in the smoke's plane y = 63). The polygon's own edges stay, and
+// so does the orientation (`orientation` signs a counterclockwise turn), so the triangles still
+// tile the same polygon. Each flip lowers the sorted list of thinnesses, so they end.
+void fattenDiagonals(const std::vector<glm::dvec2>& p, double orientation, std::vector<Triangle>& triangles)
+{
+    const std::size_t m = p.size();
+    auto turn = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        const glm::dvec2 u = p[b] - p[a], v = p[c] - p[b];
+        return orientation * (u.x * v.y - u.y * v.x);
+    };
+    auto thinness = [&](const Triangle& t) {
+        const glm::dvec2 u = p[t[1]] - p[t[0]], v = p[t[2]] - p[t[1]], w = p[t[0]] - p[t[2]];
+        const double longest = std::max({glm::dot(u, u), glm::dot(v, v), glm::dot(w, w)});
+        const double twiceArea = std::abs(u.x * v.y - u.y * v.x);
+        return twiceArea > 0.0 ? longest / twiceArea : std::numeric_limits<double>::infinity();
+    };
+    auto onRing = [&](std::uint32_t a, std::uint32_t b) { return (a + 1) % m == b || (b + 1) % m == a; };
+    std::vector<std::vector<std::uint32_t>> around(m);
+    for (std::uint32_t f = 0; f < triangles.size(); ++f)
+        for (const std::uint32_t v : triangles[f]) around[v].push_back(f);
+    auto holds = [&](std::uint32_t f, std::uint32_t v) {
+        const Triangle& t = triangles[f];
+        return t[0] == v || t[1] == v || t[2] == v;
+    };
+    std::deque<std::pair<std::uint32_t, std::uint32_t>> queue;
+    for (const Triangle& t : triangles)
+        for (int k = 0; k < 3; ++k)
+            if (!onRing(t[k], t[(k + 1) % 3])) queue.emplace_back(t[k], t[(k + 1) % 3]);
+    while (!queue.empty()) {
+        auto [a, b] = queue.front();
+        queue.pop_front();
+        std::uint32_t on[2], count = 0;
+        for (const std::uint32_t f : around[a])
+            if (holds(f, b) && count < 2) on[count++] = f;
+        if (count != 2) continue;
+        // t1 runs a -> b with c opposite, t2 b -> a with d opposite.
+        const auto opposite = [&](std::uint32_t f, std::uint32_t from, std::uint32_t to) -> std::int64_t {
+            const Triangle& t = triangles[f];
+            for (int k = 0; k < 3; ++k)
+                if (t[k] == from && t[(k + 1) % 3] == to) return t[(k + 2) % 3];
+            return -1;
+        };
+        std::uint32_t f1 = on[0], f2 = on[1];
+        if (opposite(f1, a, b) < 0) std::swap(f1, f2);
+        const std::int64_t c64 = opposite(f1, a, b), d64 = opposite(f2, b, a);
+        if (c64 < 0 || d64 < 0 || c64 == d64) continue;
+        const auto c = static_cast<std::uint32_t>(c64), d = static_cast<std::uint32_t>(d64);
+        const Triangle n1{c, a, d}, n2{d, b, c};
+        if (!(turn(c, a, d) > 0.0 && turn(d, b, c) > 0.0)) continue; // not convex
+        if (std::any_of(around[c].begin(), around[c].end(), [&](std::uint32_t f) { return holds(f, d); })) continue;
+        const double before = std::max(thinness(triangles[f1]), thinness(triangles[f2]));
+        if (!(std::max(thinness(n1), thinness(n2)) < before * (1.0 - 1e-9))) continue;
+        triangles[f1] = n1;
+        triangles[f2] = n2;
+        around[b].erase(std::find(around[b].begin(), around[b].end(), f1));
+        around[d].push_back(f1);
+        around[a].erase(std::find(around[a].begin(), around[a].end(), f2));
+        around[c].push_back(f2);
+        for (const auto& side : {std::pair{c, a}, std::pair{a, d}, std::pair{d, b}, std::pair{b, c}})
+            if (!onRing(side.first, side.second)) queue.push_back(side);
+    }
 }
 
 } // namespace
@@ -139,6 +211,7 @@ std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
         ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(clip));
     }
     if (ring.size() == 3) triangles.push_back({ring[0], ring[1], ring[2]});
+    fattenDiagonals(p, orientation, triangles);
     return triangles;
 }
 

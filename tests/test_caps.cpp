@@ -1,6 +1,7 @@
 // Tests of closing ends (caps.h): the flat caps' ear clipping.
 #include <pipetile/caps.h>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -72,4 +73,30 @@ TEST(Caps, EarClippingLetsCopiesOfAPointTouch)
     // A junction's cut points are copies of crossings of the ring they cut: a keyhole's slit runs
     // through both. A copy of a corner lies on the ear, not inside it.
     expectCovers({{0, 0}, {3, 0}, {3, 0}, {3, 2}, {1, 1.2}, {0, 2}, {0, 2}});
+}
+
+TEST(Caps, NearlyStraightCornersAreNoEars)
+{
+    // A convex polygon: eleven points on y = -0.01 (25 - (x - 5)^2) for x = 0 to 10 (a bulge 0.25
+    // deep) and an apex at (5, 5); the ring starts at the bulge's bottom. The first ear along it is
+    // that corner, a triangle 2 long and 0.01 high: aspect ratio 173 (the longest edge squared over
+    // twice the area, times sqrt(3) / 2). The fan from the apex has none worse than its outermost
+    // triangle's 7.9 (50 over 5.45, times sqrt(3) / 2); flips of the ears' diagonals, each making
+    // the thinner of two triangles fatter, end below 10.
+    std::vector<glm::dvec2> polygon;
+    for (int k = 0; k <= 10; ++k) {
+        const double x = (5 + k) % 11;
+        polygon.push_back({x, -0.01 * (25.0 - (x - 5.0) * (x - 5.0))});
+    }
+    std::rotate(polygon.begin(), polygon.begin() + 6, polygon.end()); // x = 0, 1, ..., 10
+    polygon.push_back({5.0, 5.0});
+    std::rotate(polygon.begin(), polygon.begin() + 5, polygon.end()); // starts at x = 5
+    expectCovers(polygon);
+    double worst = 0.0;
+    for (const Triangle& t : earClip(polygon)) {
+        const glm::dvec2 &a = polygon[t[0]], &b = polygon[t[1]], &c = polygon[t[2]];
+        const double longest = std::max({glm::dot(b - a, b - a), glm::dot(c - b, c - b), glm::dot(a - c, a - c)});
+        worst = std::max(worst, longest / std::abs(twiceSignedArea(a, b, c)) * std::sqrt(3.0) / 2.0);
+    }
+    EXPECT_LT(worst, 10.0);
 }

@@ -35,7 +35,8 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
 /// (counterclockwise, or clockwise for a hole's ring). Points that are copies of one another (a
 /// junction's cut point on a crossing) may touch. Where rounding leaves no clean ear (a nearly
 /// degenerate polygon), the most convex corner is clipped anyway, so the count, and the closed
-/// mesh, never depend on it.
+/// mesh, never depend on it. The diagonals then flip where the other diagonal of their convex
+/// quadrilateral makes the thinner triangle fatter (nearly straight corners make needle ears).
 std::vector<Triangle> earClip(const std::vector<glm::dvec2>& polygon);
 
 } // namespace pipetile
