@@ -1991,6 +1991,14 @@ private:
     void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
     void buildTrees();
     std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes) const;
+    // The baselines' band over world-space points: the minimum-area tiler's (also the contour
+    // tree's fallback, tileBands), or with `greedy` the shorter spanning edge's.
+    std::vector<Triangle> tileByArea(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
+                                     bool greedy = false) const;
+    // How much farther than the point nearest it on the other contour the band joins a point
+    // (pixels, about each contour's mean crossing; 0 if nowhere past kOutOfRegister): where the
+    // contour tree's parses of two noisy contours' excursions differ.
+    static double strayOf(const std::vector<Triangle>& band, const Side& lower, const Side& upper);
     Side sideOf(std::size_t i) const;
     static void place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip);
     void tileBands();
@@ -2326,6 +2334,13 @@ std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide,
         }
         return tileBand(*lower, *upper);
     }
+    return mOptions.tiler == TilerKind::Optimal ? tileByArea(lowerSide, upperSide, bytes)
+                                                : tileByArea(lowerSide, upperSide, bytes, true);
+}
+
+std::vector<Triangle> Reconstruction::Assembly::tileByArea(const Side& lowerSide, const Side& upperSide,
+                                                           std::size_t& bytes, bool greedy) const
+{
     // The baselines see the same contours as world-space points.
     const auto first = mesh.vertices.begin();
     const std::uint32_t lowerCount = static_cast<std::uint32_t>(lowerSide.contour->crossings.size());
@@ -2333,12 +2348,60 @@ std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide,
     const std::vector<glm::dvec3> b(first + upperSide.first,
                                     first + upperSide.first + upperSide.contour->crossings.size());
     ToroidalStats stats;
-    std::vector<Triangle> band =
-        mOptions.tiler == TilerKind::Optimal ? tileOptimal(a, b, &stats) : tileGreedy(a, b, &stats);
+    std::vector<Triangle> band = greedy ? tileGreedy(a, b, &stats) : tileOptimal(a, b, &stats);
     bytes += stats.bytes;
     // A strip that fans one point over the whole other contour is no manifold (the oblique
     // tube's tiny sections with --tiler optimal, before this).
     return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
+}
+
+double Reconstruction::Assembly::strayOf(const std::vector<Triangle>& band, const Side& lower, const Side& upper)
+{
+    const std::uint32_t m = static_cast<std::uint32_t>(lower.contour->crossings.size());
+    const std::uint32_t n = static_cast<std::uint32_t>(upper.contour->crossings.size());
+    // In-plane, from each contour's mean crossing: a tube that leans pairs its points as its
+    // sections moved, not where they lie in the plane (a central point can jump within a noisy
+    // section, where the mean stays).
+    const auto mean = [](const Contour& c) {
+        glm::dvec2 sum(0.0);
+        for (const Crossing& x : c.crossings) sum += x.point;
+        return sum / static_cast<double>(c.crossings.size());
+    };
+    const glm::dvec2 lowerMean = mean(*lower.contour), upperMean = mean(*upper.contour);
+    const auto at = [&](std::uint32_t v) {
+        return v < m ? lower.contour->crossings[v].point - lowerMean
+                     : upper.contour->crossings[v - m].point - upperMean;
+    };
+    // The point of the other contour (band-local ids from..from + count) nearest p.
+    const auto nearestOn = [&](const glm::dvec2& p, std::uint32_t from, std::uint32_t count) {
+        std::uint32_t best = from;
+        for (std::uint32_t k = from + 1; k < from + count; ++k)
+            if (glm::distance(p, at(k)) < glm::distance(p, at(best))) best = k;
+        return best;
+    };
+    // Steps around a contour of `count` points between two of its points.
+    const auto steps = [](std::uint32_t a, std::uint32_t b, std::uint32_t count) {
+        const std::uint32_t d = a > b ? a - b : b - a;
+        return std::min(d, count - d);
+    };
+    // How far past the point nearest it on the other contour a spanning edge reaches, where that
+    // point is not beside its end there (a diagonal of a coarse band's quad spans to the next
+    // point, a ray's spacing away).
+    const auto excess = [&](std::uint32_t from, std::uint32_t to, std::uint32_t first, std::uint32_t count) {
+        const double span = glm::distance(at(from), at(to));
+        if (span <= kOutOfRegister) return 0.0;
+        const std::uint32_t nearest = nearestOn(at(from), first, count);
+        return steps(to - first, nearest - first, count) > 1 ? span - glm::distance(at(from), at(nearest)) : 0.0;
+    };
+    double stray = 0.0;
+    for (const Triangle& t : band)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+            if ((a < m) == (b < m)) continue; // along a contour
+            const std::uint32_t u = std::min(a, b), v = std::max(a, b);
+            stray = std::max({stray, excess(u, v, m, n), excess(v, u, 0, m)});
+        }
+    return stray;
 }
 
 Reconstruction::Assembly::Side Reconstruction::Assembly::sideOf(std::size_t i) const
@@ -2361,14 +2424,23 @@ void Reconstruction::Assembly::tileBands()
 {
     bandBytes.assign(members.size(), 0);
     bands.resize(members.size());
+    std::vector<char> byArea(members.size(), 0);
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         if (members[i].startsTube) return;
         bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i]);
+        // Two noisy contours whose excursions the contour trees parse differently can be paired
+        // far out of register (a ring tree's notch: crossings 12 pixels apart, 1.4 voxels off
+        // the surface): such a band is tiled by area instead.
+        if (mOptions.tiler == TilerKind::ContourTree && strayOf(bands[i], sideOf(i - 1), sideOf(i)) > kOutOfRegister) {
+            bands[i] = tileByArea(sideOf(i - 1), sideOf(i), bandBytes[i]);
+            byArea[i] = 1;
+        }
         place(bands[i], sideOf(i - 1), sideOf(i), members[i].tube->hole != mirrored);
         splitForExtras(bands[i], i - 1);
         splitForExtras(bands[i], i);
     });
     for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
+    result.areaBands = static_cast<int>(std::count(byArea.begin(), byArea.end(), 1));
 }
 
 ContourTree Reconstruction::Assembly::treeOf(std::size_t i) const

@@ -1538,24 +1538,33 @@ TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
     }
 }
 
-// Known gap (CMakeLists.txt, WILL_FAIL): the ring trees above have the isosurface's topology at
-// every level, but their top levels are 1.44 (seed 6) and 1.46 (seed 11) voxels off. Seen in
-// each, sliced along x:
-// - seed 6: between a merge at x = 54.5 and a fork at 55 (one segment half a voxel long), a vertex
-//   of the contour at 55 is fanned onto crossings of the contour at 54.5 twelve pixels away (1.40);
-//   and at x = 59.25 two consecutive crossings lie 33 pixels apart along the trunk's straight
-//   wall, a chord 1.2 voxels inside it that the top level's halvings of straying sectors leave;
-// - seed 11: the keyhole that cuts the ring open at the merge at x = 50.5 runs through its wall
-//   where the partners' plane, 50, is inside too (no slit from the wall to the hole is clear of
-//   it, however long). Its crossings lie in the plane 50.5, up to 1.46 voxels inside, where the
-//   surface is a wall near x = 49: the field does not change sides between the two planes there.
-TEST(Graph, DISABLED_KnownGapRingTreesAreWithinAVoxelAtTheTopLevel)
+// Seed 6's top level lies within a voxel of the isosurface. Between a merge at x = 54.5 and a
+// fork at 55 (one segment half a voxel long) the two contours are nearly one (0.33 pixel out of
+// register), but their contour trees parse a notch's excursions differently (96 crossings against
+// 94), and the band fanned a vertex at 55 onto crossings at 54.5 twelve pixels away: 1.44 voxels
+// off. A band that joins a point more than 3 pixels farther than the other contour's point nearest
+// it is tiled by area instead (tileBands, strayOf).
+TEST(Graph, RingTreeSixIsWithinAVoxelAtTheTopLevel)
 {
-    const std::vector<std::vector<Capsule>>& trees = ringTrees();
-    for (std::size_t k = 0; k < trees.size(); ++k) {
-        SCOPED_TRACE(k == 0 ? "seed 6" : "seed 11");
-        expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(trees[k], "ring-merging capsule tree"));
-    }
+    const Volume volume = capsuleUnion(ringTrees()[0], "ring-merging capsule tree");
+    MeshOptions options;
+    options.slicing.axis = Axis::X;
+    const Reconstruction reconstruction(volume, options);
+    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
+    EXPECT_GT(top.areaBands, 0); // else the tree no longer shows the case
+    const Validation v = Validator(volume).validate(top.mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    EXPECT_EQ(v.topology.euler, checkTopology(isosurface(volume, 0.0)).euler);
+}
+
+// Known gap (CMakeLists.txt, WILL_FAIL): seed 11's top level is 1.48 voxels off, sliced along x.
+// The keyhole that cuts the ring open at the merge at x = 50.5 runs through its wall where the
+// partners' plane, 50, is inside too (no slit from the wall to the hole is clear of it, however
+// long). Its crossings lie in the plane 50.5, up to 1.48 voxels inside, where the surface is a
+// wall near x = 49: the field does not change sides between the two planes there.
+TEST(Graph, DISABLED_KnownGapRingTreeElevenIsWithinAVoxelAtTheTopLevel)
+{
+    expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(ringTrees()[1], "ring-merging capsule tree"));
 }
 
 TEST(Graph, BaselineTilersCloseEveryLevelToo)

@@ -155,6 +155,7 @@ json levelReport(const LevelMesh& level, bool topology)
         {"ambiguous_sectors", level.ambiguousSectors},
         {"interpolation_fallbacks", level.interpolationFallbacks},
         {"area_junction_parts", level.areaJunctionParts},
+        {"area_bands", level.areaBands},
     };
     // Triangle quality, for the meshers and renderers downstream (a linear pass).
     const TriangleQuality q = measureQuality(level.mesh);
