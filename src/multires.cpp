@@ -2691,6 +2691,11 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
         const Side& upper = fork || rim ? partnerSide : partSide;
         std::size_t bytes = 0;
         triangles = tileSides(lower, upper, bytes);
+        // Paired far out of register, as a band can be (tileBands): tiled by area.
+        if (mOptions.tiler == TilerKind::ContourTree && strayOf(triangles, lower, upper) > kOutOfRegister) {
+            triangles = tileByArea(lower, upper, bytes);
+            ++result.areaBands;
+        }
         result.tilingBytes += bytes;
         place(triangles, lower, upper, flip);
         // The part's edges, split by the vertices the boundary has between its crossings.

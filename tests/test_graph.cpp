@@ -619,7 +619,8 @@ TEST(Graph, RingSectorsAndSliversAreTiledByTheIntegerBand)
     // (at 7.5) that formed from eight slivers of one pixel (at 7). A sector's centre lay outside
     // its part, and a sliver's polygon has no point a quarter pixel clear, so 11 of its 20 parts
     // fell back to the minimum-area tiler. Each such partner now moves to the point deepest inside
-    // both it and its part (centreParts), and every part is tiled by the band.
+    // both it and its part (centreParts), and every part is cast as a contour (a part the contour
+    // trees then pair out of register is tiled by area: areaBands, not counted here).
     EXPECT_EQ(areaJunctionParts("hollow-y"), 0);
 }
 
@@ -1659,6 +1660,17 @@ TEST(Graph, VesselTree)
 TEST(Graph, BranchesPartThroughAPixelHole)
 {
     expectIsosurfaceTopology("parting");
+}
+// Its level 2 was 1.45 voxels off: a junction part whose contour trees paired a crossing far out
+// of register with its partner's (strayOf). Such a part is tiled by area, as such a band is, and
+// the level lies within a voxel (0.77), as level 2 of the other trees does.
+TEST(Graph, APartOutOfRegisterIsTiledByArea)
+{
+    const Volume& volume = test::cachedSample("parting");
+    const LevelMesh level = Reconstruction(volume, MeshOptions{}).buildLevel(2);
+    EXPECT_GT(level.areaBands, 0); // else the sample no longer shows the case
+    const Validation v = Validator(volume).validate(level.mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
 }
 // A T whose side branch lies in a slicing plane: the arm grows along its whole length at once.
 // Its first section pulled the centroid 8 voxels along the arm (the trunk's band then ran 2.7

@@ -74,9 +74,9 @@ struct LevelMesh {
     int interpolationFallbacks = 0; // crossings left on the crack (no sign change nearby)
     int areaJunctionParts = 0;      // junction parts tiled by the minimum-area tiler: their polygon
                                     // gave no contour (it winds around no point inside it)
-    int areaBands = 0;              // bands tiled by the minimum-area tiler: the contour trees
-                                    // paired points far out of register (more than 3 pixels
-                                    // farther than the other contour's nearest point)
+    int areaBands = 0;              // bands and junction parts tiled by the minimum-area tiler
+                                    // where the contour trees paired points far out of register
+                                    // (3 pixels farther than the other contour's nearest point)
     long long flips = 0;            // edges flipped to remove needles (quality.h, flipNeedles)
 };
 
