@@ -408,7 +408,9 @@ TEST(Quality, NoTriangleOfNoAreaOnANoisyFog)
 TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
 {
     // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy fog,
-    // keeps largest aspect ratios 53, 95, 105 and 105 at levels 0 to 3 (232 and 142 at levels 2
+    // keeps largest aspect ratios 91, 139, 69 and 82 at levels 0 to 3 (the 139 lies flat in the
+    // plane y = 32 under a merge, a patch's point 0.12 voxel from the next along a nearly straight side;
+    // 53, 95, 105 and 105 before bands and parts out of register were tiled by area; 232 and 142 at levels 2
     // and 3 before coarse levels' short edges went whatever their shape: the 105 is a triangle
     // flat in a slice plane whose short edge, 0.135 voxel, joins two vertices of level 1; 95, 689, 689 and 689
     // before end contours kept off other objects' loops; 137, 177, 320 and 320 before the ends of loops too thin for any cell's centre found their reach from their
