@@ -1995,10 +1995,10 @@ private:
     // tree's fallback, tileBands), or with `greedy` the shorter spanning edge's.
     std::vector<Triangle> tileByArea(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
                                      bool greedy = false) const;
-    // How much farther than the point nearest it on the other contour the band joins a point
-    // (pixels, about each contour's mean crossing; 0 if nowhere past kOutOfRegister): where the
-    // contour tree's parses of two noisy contours' excursions differ.
-    static double strayOf(const std::vector<Triangle>& band, const Side& lower, const Side& upper);
+    // Whether the band joins a point more than kOutOfRegister pixels farther than a point of the
+    // other contour nearer it (about each contour's mean crossing): where the contour trees'
+    // parses of two noisy contours' excursions differ.
+    static bool outOfRegister(const std::vector<Triangle>& band, const Side& lower, const Side& upper);
     Side sideOf(std::size_t i) const;
     static void place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip);
     void tileBands();
@@ -2355,10 +2355,15 @@ std::vector<Triangle> Reconstruction::Assembly::tileByArea(const Side& lowerSide
     return withoutFullFans(band, lowerCount, static_cast<std::uint32_t>(b.size()));
 }
 
-double Reconstruction::Assembly::strayOf(const std::vector<Triangle>& band, const Side& lower, const Side& upper)
+bool Reconstruction::Assembly::outOfRegister(const std::vector<Triangle>& band, const Side& lower, const Side& upper)
 {
     const std::uint32_t m = static_cast<std::uint32_t>(lower.contour->crossings.size());
     const std::uint32_t n = static_cast<std::uint32_t>(upper.contour->crossings.size());
+    // Contours that each ray crosses once pair ray by ray: only excursions (a ray crossing three
+    // times or more) can be parsed differently.
+    if (m == static_cast<std::uint32_t>(lower.contour->rays.count()) &&
+        n == static_cast<std::uint32_t>(upper.contour->rays.count()))
+        return false;
     // In-plane, from each contour's mean crossing: a tube that leans pairs its points as its
     // sections moved, not where they lie in the plane (a central point can jump within a noisy
     // section, where the mean stays).
@@ -2372,36 +2377,50 @@ double Reconstruction::Assembly::strayOf(const std::vector<Triangle>& band, cons
         return v < m ? lower.contour->crossings[v].point - lowerMean
                      : upper.contour->crossings[v - m].point - upperMean;
     };
-    // The point of the other contour (band-local ids from..from + count) nearest p.
-    const auto nearestOn = [&](const glm::dvec2& p, std::uint32_t from, std::uint32_t count) {
-        std::uint32_t best = from;
-        for (std::uint32_t k = from + 1; k < from + count; ++k)
-            if (glm::distance(p, at(k)) < glm::distance(p, at(best))) best = k;
-        return best;
+    // Each contour's points by u, for the points within a distance of one (a window of u); sorted
+    // on the first spanning edge longer than kOutOfRegister (most bands have none).
+    std::vector<std::pair<double, std::uint32_t>> byU[2];
+    const auto sorted = [&](int side) -> const std::vector<std::pair<double, std::uint32_t>>& {
+        if (byU[side].empty()) {
+            for (std::uint32_t v = side == 0 ? 0 : m; v < (side == 0 ? m : m + n); ++v)
+                byU[side].emplace_back(at(v).x, v);
+            std::sort(byU[side].begin(), byU[side].end());
+        }
+        return byU[side];
     };
     // Steps around a contour of `count` points between two of its points.
     const auto steps = [](std::uint32_t a, std::uint32_t b, std::uint32_t count) {
         const std::uint32_t d = a > b ? a - b : b - a;
         return std::min(d, count - d);
     };
-    // How far past the point nearest it on the other contour a spanning edge reaches, where that
-    // point is not beside its end there (a diagonal of a coarse band's quad spans to the next
-    // point, a ray's spacing away).
-    const auto excess = [&](std::uint32_t from, std::uint32_t to, std::uint32_t first, std::uint32_t count) {
-        const double span = glm::distance(at(from), at(to));
-        if (span <= kOutOfRegister) return 0.0;
-        const std::uint32_t nearest = nearestOn(at(from), first, count);
-        return steps(to - first, nearest - first, count) > 1 ? span - glm::distance(at(from), at(nearest)) : 0.0;
+    // Whether the spanning edge from -> to reaches more than kOutOfRegister past the point of the
+    // other contour nearest `from`, that point not beside `to` (a diagonal of a coarse band's quad
+    // spans to the next point, a ray's spacing away). Only points within that reach can be it: a
+    // window of u.
+    const auto strays = [&](std::uint32_t from, std::uint32_t to) {
+        const glm::dvec2 p = at(from);
+        double reach = glm::distance(p, at(to)) - kOutOfRegister;
+        if (reach <= 0.0) return false;
+        const bool upperSide = to >= m;
+        const auto& side = sorted(upperSide ? 1 : 0);
+        std::int64_t nearest = -1;
+        for (auto it = std::lower_bound(side.begin(), side.end(), std::pair{p.x - reach, std::uint32_t(0)});
+             it != side.end() && it->first < p.x + reach; ++it) {
+            const double d = glm::distance(p, at(it->second));
+            if (d < reach) {
+                reach = d;
+                nearest = it->second;
+            }
+        }
+        const std::uint32_t first = upperSide ? m : 0, count = upperSide ? n : m;
+        return nearest >= 0 && steps(static_cast<std::uint32_t>(nearest) - first, to - first, count) > 1;
     };
-    double stray = 0.0;
     for (const Triangle& t : band)
         for (int k = 0; k < 3; ++k) {
             const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-            if ((a < m) == (b < m)) continue; // along a contour
-            const std::uint32_t u = std::min(a, b), v = std::max(a, b);
-            stray = std::max({stray, excess(u, v, m, n), excess(v, u, 0, m)});
+            if ((a < m) != (b < m) && strays(a, b)) return true;
         }
-    return stray;
+    return false;
 }
 
 Reconstruction::Assembly::Side Reconstruction::Assembly::sideOf(std::size_t i) const
@@ -2431,7 +2450,7 @@ void Reconstruction::Assembly::tileBands()
         // Two noisy contours whose excursions the contour trees parse differently can be paired
         // far out of register (a ring tree's notch: crossings 12 pixels apart, 1.4 voxels off
         // the surface): such a band is tiled by area instead.
-        if (mOptions.tiler == TilerKind::ContourTree && strayOf(bands[i], sideOf(i - 1), sideOf(i)) > kOutOfRegister) {
+        if (mOptions.tiler == TilerKind::ContourTree && outOfRegister(bands[i], sideOf(i - 1), sideOf(i))) {
             bands[i] = tileByArea(sideOf(i - 1), sideOf(i), bandBytes[i]);
             byArea[i] = 1;
         }
@@ -2692,7 +2711,7 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
         std::size_t bytes = 0;
         triangles = tileSides(lower, upper, bytes);
         // Paired far out of register, as a band can be (tileBands): tiled by area.
-        if (mOptions.tiler == TilerKind::ContourTree && strayOf(triangles, lower, upper) > kOutOfRegister) {
+        if (mOptions.tiler == TilerKind::ContourTree && outOfRegister(triangles, lower, upper)) {
             triangles = tileByArea(lower, upper, bytes);
             ++result.areaBands;
         }

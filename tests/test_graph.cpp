@@ -1544,7 +1544,7 @@ TEST(Graph, RingsWhoseHoleNoPartnerSharesAreCutOpenByAKeyhole)
 // register), but their contour trees parse a notch's excursions differently (96 crossings against
 // 94), and the band fanned a vertex at 55 onto crossings at 54.5 twelve pixels away: 1.44 voxels
 // off. A band that joins a point more than 3 pixels farther than the other contour's point nearest
-// it is tiled by area instead (tileBands, strayOf).
+// it is tiled by area instead (tileBands, outOfRegister).
 TEST(Graph, RingTreeSixIsWithinAVoxelAtTheTopLevel)
 {
     const Volume volume = capsuleUnion(ringTrees()[0], "ring-merging capsule tree");
@@ -1662,7 +1662,7 @@ TEST(Graph, BranchesPartThroughAPixelHole)
     expectIsosurfaceTopology("parting");
 }
 // Its level 2 was 1.45 voxels off: a junction part whose contour trees paired a crossing far out
-// of register with its partner's (strayOf). Such a part is tiled by area, as such a band is, and
+// of register with its partner's (outOfRegister). Such a part is tiled by area, as such a band is, and
 // the level lies within a voxel (0.77), as level 2 of the other trees does.
 TEST(Graph, APartOutOfRegisterIsTiledByArea)
 {
