@@ -1990,11 +1990,13 @@ private:
     Ring ringOf(std::size_t i) const;
     void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
     void buildTrees();
-    std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes) const;
-    // The baselines' band over world-space points: the minimum-area tiler's (also the contour
-    // tree's fallback, tileBands), or with `greedy` the shorter spanning edge's.
-    std::vector<Triangle> tileByArea(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
-                                     bool greedy = false) const;
+    // `byArea`: the contour trees' band was out of register and the minimum-area tiler's was taken.
+    std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
+                                    bool& byArea) const;
+    // A toroidal tiler's band (`kind` Optimal or Greedy) over the contours' world-space points:
+    // the baselines', and the contour trees' fallback.
+    std::vector<Triangle> tileToroidal(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
+                                       TilerKind kind) const;
     // Whether the band joins a point more than kOutOfRegister pixels farther than a point of the
     // other contour nearer it (about each contour's mean crossing): where the contour trees'
     // parses of two noisy contours' excursions differ.
@@ -2306,8 +2308,9 @@ void Reconstruction::Assembly::buildTrees()
 // The band between contour `lower` (its crossings ids from lowerFirst) and `upper` above it,
 // in band-local ids: the lower contour's crossings, then the upper one's.
 std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide, const Side& upperSide,
-                                                          std::size_t& bytes) const
+                                                          std::size_t& bytes, bool& byArea) const
 {
+    byArea = false;
     if (mOptions.tiler == TilerKind::ContourTree) {
         // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
         // closest to the upper contour's, then the upper one the F edge closest to that
@@ -2332,14 +2335,19 @@ std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide,
             upper = rankedUpper.get();
             bytes += upper->bytes();
         }
-        return tileBand(*lower, *upper);
+        std::vector<Triangle> band = tileBand(*lower, *upper);
+        // Two noisy contours whose excursions the contour trees parse differently can be paired
+        // far out of register (a ring tree's notch: crossings 12 pixels apart, 1.4 voxels off
+        // the surface): such a band, or junction part, is tiled by area instead.
+        if (!outOfRegister(band, lowerSide, upperSide)) return band;
+        byArea = true;
+        return tileToroidal(lowerSide, upperSide, bytes, TilerKind::Optimal);
     }
-    return mOptions.tiler == TilerKind::Optimal ? tileByArea(lowerSide, upperSide, bytes)
-                                                : tileByArea(lowerSide, upperSide, bytes, true);
+    return tileToroidal(lowerSide, upperSide, bytes, mOptions.tiler);
 }
 
-std::vector<Triangle> Reconstruction::Assembly::tileByArea(const Side& lowerSide, const Side& upperSide,
-                                                           std::size_t& bytes, bool greedy) const
+std::vector<Triangle> Reconstruction::Assembly::tileToroidal(const Side& lowerSide, const Side& upperSide,
+                                                             std::size_t& bytes, TilerKind kind) const
 {
     // The baselines see the same contours as world-space points.
     const auto first = mesh.vertices.begin();
@@ -2348,7 +2356,7 @@ std::vector<Triangle> Reconstruction::Assembly::tileByArea(const Side& lowerSide
     const std::vector<glm::dvec3> b(first + upperSide.first,
                                     first + upperSide.first + upperSide.contour->crossings.size());
     ToroidalStats stats;
-    std::vector<Triangle> band = greedy ? tileGreedy(a, b, &stats) : tileOptimal(a, b, &stats);
+    std::vector<Triangle> band = kind == TilerKind::Greedy ? tileGreedy(a, b, &stats) : tileOptimal(a, b, &stats);
     bytes += stats.bytes;
     // A strip that fans one point over the whole other contour is no manifold (the oblique
     // tube's tiny sections with --tiler optimal, before this).
@@ -2446,14 +2454,9 @@ void Reconstruction::Assembly::tileBands()
     std::vector<char> byArea(members.size(), 0);
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         if (members[i].startsTube) return;
-        bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i]);
-        // Two noisy contours whose excursions the contour trees parse differently can be paired
-        // far out of register (a ring tree's notch: crossings 12 pixels apart, 1.4 voxels off
-        // the surface): such a band is tiled by area instead.
-        if (mOptions.tiler == TilerKind::ContourTree && outOfRegister(bands[i], sideOf(i - 1), sideOf(i))) {
-            bands[i] = tileByArea(sideOf(i - 1), sideOf(i), bandBytes[i]);
-            byArea[i] = 1;
-        }
+        bool area = false;
+        bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i], area);
+        byArea[i] = area ? 1 : 0;
         place(bands[i], sideOf(i - 1), sideOf(i), members[i].tube->hole != mirrored);
         splitForExtras(bands[i], i - 1);
         splitForExtras(bands[i], i);
@@ -2709,12 +2712,9 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
         const Side& lower = fork || rim ? partSide : partnerSide;
         const Side& upper = fork || rim ? partnerSide : partSide;
         std::size_t bytes = 0;
-        triangles = tileSides(lower, upper, bytes);
-        // Paired far out of register, as a band can be (tileBands): tiled by area.
-        if (mOptions.tiler == TilerKind::ContourTree && outOfRegister(triangles, lower, upper)) {
-            triangles = tileByArea(lower, upper, bytes);
-            ++result.areaBands;
-        }
+        bool byArea = false;
+        triangles = tileSides(lower, upper, bytes, byArea);
+        result.areaBands += byArea ? 1 : 0;
         result.tilingBytes += bytes;
         place(triangles, lower, upper, flip);
         // The part's edges, split by the vertices the boundary has between its crossings.
