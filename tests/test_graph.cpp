@@ -1217,6 +1217,16 @@ const std::vector<std::vector<Capsule>>& crossingTrees()
 
 namespace {
 
+// `mesh` has the isosurface's Euler characteristic and components, and lies within `voxels` of it.
+void expectOnTheIsosurface(const Volume& volume, const TriangleMesh& mesh, double voxels)
+{
+    const Validation v = Validator(volume).validate(mesh);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(v.topology.euler, reference.euler);
+    EXPECT_EQ(v.topology.components, reference.components);
+    EXPECT_LE(v.symmetric.max / v.voxel, voxels);
+}
+
 // Sliced along x, the top level has the isosurface's Euler characteristic and components, and
 // lies within a voxel of it.
 void expectTopLevelOfTheIsosurfaceAlongX(const Volume& volume)
@@ -1224,12 +1234,7 @@ void expectTopLevelOfTheIsosurfaceAlongX(const Volume& volume)
     MeshOptions options;
     options.slicing.axis = Axis::X;
     const Reconstruction reconstruction(volume, options);
-    const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
-    const Validation v = Validator(volume).validate(top.mesh);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    EXPECT_EQ(v.topology.euler, reference.euler);
-    EXPECT_EQ(v.topology.components, reference.components);
-    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
 }
 
 } // namespace
@@ -1247,9 +1252,7 @@ TEST(Graph, AnEndContourPastAnotherKeepsOffOtherObjects)
     MeshOptions options;
     options.slicing.axis = Axis::Y;
     const Reconstruction reconstruction(volume, options);
-    const Validation v = Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
-    EXPECT_LE(v.symmetric.max / v.voxel, 2.0);
-    EXPECT_EQ(v.topology.euler, checkTopology(isosurface(volume, 0.0)).euler);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 2.0);
 }
 
 // A crop of the smoke at iso 0.1, sliced along y: at y = 153 a contour forks into six partners a
@@ -1272,9 +1275,7 @@ TEST(Graph, AJunctionInASlabTooThickForItIsMeshedFromItsCells)
             const double w = junction.kind == EventKind::Merge ? partner.wLast : partner.wFirst;
             EXPECT_LE(std::abs(w - junction.w), 0.5) << "junction at w = " << junction.w;
         }
-    const Validation v = Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
-    EXPECT_LE(v.symmetric.max / v.voxel, 2.0);
-    EXPECT_EQ(v.topology.euler, checkTopology(isosurface(volume, 0.0)).euler);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 2.0);
 }
 
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
@@ -1553,9 +1554,7 @@ TEST(Graph, RingTreeSixIsWithinAVoxelAtTheTopLevel)
     const Reconstruction reconstruction(volume, options);
     const LevelMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1);
     EXPECT_GT(top.areaBands, 0); // else the tree no longer shows the case
-    const Validation v = Validator(volume).validate(top.mesh);
-    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
-    EXPECT_EQ(v.topology.euler, checkTopology(isosurface(volume, 0.0)).euler);
+    expectOnTheIsosurface(volume, top.mesh, 1.0);
 }
 
 // Known gap (CMakeLists.txt, WILL_FAIL): seed 11's top level is 1.48 voxels off, sliced along x.
@@ -1669,8 +1668,7 @@ TEST(Graph, APartOutOfRegisterIsTiledByArea)
     const Volume& volume = test::cachedSample("parting");
     const LevelMesh level = Reconstruction(volume, MeshOptions{}).buildLevel(2);
     EXPECT_GT(level.areaBands, 0); // else the sample no longer shows the case
-    const Validation v = Validator(volume).validate(level.mesh);
-    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    expectOnTheIsosurface(volume, level.mesh, 1.0);
 }
 // A T whose side branch lies in a slicing plane: the arm grows along its whole length at once.
 // Its first section pulled the centroid 8 voxels along the arm (the trunk's band then ran 2.7
