@@ -518,6 +518,13 @@ void Reconstruction::resolveEvents()
             }
             const bool joins = piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
                                (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2);
+            // An n:m piece is meshed from its cells where they close with its Euler characteristic:
+            // a waist is the walls' union, wider than the slab's middle where a wall ends inside
+            // the slab, and its fans stray there (the smoke's top level: 1.53 voxels off at one).
+            if (piece.kind == EventKind::Unresolved && patch && patch->euler == piece.euler()) {
+                joinPatch(slab, piece, std::move(*patch));
+                continue;
+            }
             Junction merge, fork;
             if (piece.kind == EventKind::Unresolved && makeWaist(slab, piece, merge, fork)) {
                 const int waist = static_cast<int>(mLoops.size()) - 1, id = static_cast<int>(mJunctions.size());

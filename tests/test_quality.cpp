@@ -395,38 +395,12 @@ TEST(Quality, NoNeedlesOnTheRealData)
     // Gaffer's sphere, as a level set and as a density fog: smooth, one tube capped at both ends.
     expectNoNeedlesOnRealData("gaffer_sphere_levelset.vdb");
     expectNoNeedlesOnRealData("gaffer_sphere_density_fog.vdb");
-}
-
-// A collapse of two vertices a hair apart (kShortEdgeAspect's pass) makes no needle worse than the
-// worst it takes away. On Gaffer's smoke, two such collapses moved a vertex onto the line through
-// two others (aspect 4.5e14 and 7.7e13 at levels 2 and 3): a triangle of no area at each.
-TEST(Quality, NoTriangleOfNoAreaOnANoisyFog)
-{
-    expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb", false);
-}
-
-TEST(Quality, DISABLED_KnownGapNoNeedlesOnANoisyFog)
-{
-    // Known gap (registered as an expected failure in CMakeLists.txt). Gaffer's smoke, a noisy fog,
-    // keeps largest aspect ratios 91, 139, 69 and 82 at levels 0 to 3 (the 139 lies flat in the
-    // plane y = 32 under a merge, a patch's point 0.12 voxel from the next along a nearly straight side;
-    // 53, 95, 105 and 105 before bands and parts out of register were tiled by area; 232 and 142 at levels 2
-    // and 3 before coarse levels' short edges went whatever their shape: the 105 is a triangle
-    // flat in a slice plane whose short edge, 0.135 voxel, joins two vertices of level 1; 95, 689, 689 and 689
-    // before end contours kept off other objects' loops; 137, 177, 320 and 320 before the ends of loops too thin for any cell's centre found their reach from their
-    // pixels: the 689 has an edge of 0.011 voxel, one end a vertex of level 0, that no collapse
-    // took; two triangles of no area at levels 2 and 3 went with NoTriangleOfNoAreaOnANoisyFog); with its pieces capped contour by contour, 945, 1008, 320 and 320 (444 at
-    // level 3 before specks collapsed; 154 and 177 at levels 0 and 1 before its keyholes: the worst now lie at a
-    // keyhole's fork, where a speck of a branch owns a sliver of the contour that the minimum-area
-    // tiler closes; 282, 756 and 1498 at levels 1 to 3, and 9, 8 and 8 triangles of no area, before
-    // its waists; the counts below are from then). At level 0, four needles over 100 have a short
-    // edge whose ends share a neighbour besides the edge's two third corners (the link condition
-    // refuses: the collapse would pinch the surface); one lies on a blob under a voxel across, a
-    // contour of 5 vertices banded to one of 3 a quarter voxel away, where each vertex of the one
-    // neighbours most of the other's. At levels 1 to 3, 41 of 43, 52 of 60 and 71 of 83 needles
-    // over 100 have a short edge (down to 0.004 voxel, or none: the triangles of no area join two
-    // copies of one point) whose two ends are both vertices of the level below, mostly not joined
-    // there: the refined tiling joins them, and neither may go, or levels would no longer nest.
+    // Gaffer's smoke, a noisy fog. Its last needle (aspect 139 at level 1, flat in the plane y = 32
+    // under a merge) went with the waists (n:m pieces are meshed from their cells where those close:
+    // Graph.AnNmPieceWhoseCellsCloseTakesNoWaist). Before: two collapses that moved a vertex onto
+    // the line through two others (aspect 4.5e14 and 7.7e13 at levels 2 and 3); short edges between
+    // vertices of the level below that no collapse may take (levels nest); a speck of a keyhole's
+    // branch owning a sliver of the contour (README, triangle quality).
     expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb");
 }
 
