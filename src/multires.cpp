@@ -1481,19 +1481,15 @@ void Reconstruction::joinRims()
                 rims.push_back({best, top, {h}});
         }
     }
-    // A ring whose wall is one contour, joined on its other side by a keyhole in the same plane:
-    // the keyhole's slit lies flat in the plane, over the material an annulus would cover from
-    // this side, and no triangulation of the slit then avoids all of the annulus's diagonals (a
-    // crop of the smoke cut at its first plane: an edge with four triangles at level 0). The face
-    // the grid's box cuts there is meshed from its cells instead, off the plane.
-    const auto slitBehind = [&](int wall, bool top) {
-        const Tube& tube = mTubes[wall];
-        const TubeEnd& other = top ? tube.bottom : tube.top;
-        return tube.members.size() == 1 && other.junction >= 0 && mJunctions[other.junction].keyhole.open();
-    };
+    // A face the grid's box cuts, at its first or last plane, is meshed from its cells out to the
+    // empty plane past the box, as volumeToMesh closes it (patchFace). Tiled in the plane, from
+    // each hole to the arc of the wall nearest it, it lay over the bays of a wall its holes do
+    // not see whole (a crop of the smoke: 2.4 voxels off at the top level); and where a keyhole's
+    // slit behind a ring lay in the same plane, no triangulation of the slit avoided all of the
+    // annulus's diagonals (an edge with four triangles).
     for (const auto& [wall, top, holes] : rims) {
+        if (patchFace(wall, holes, top)) continue;
         if (holes.size() > 1 && joinRimFace(wall, holes, top)) continue;
-        if ((holes.size() > 1 || slitBehind(wall, top)) && patchFace(wall, holes, top)) continue;
         const int h = holes.front();
         joinAnnulus(wall, h, top);
         const double w = mPositions[(top ? mTubes[h].members.back() : mTubes[h].members.front()).first];

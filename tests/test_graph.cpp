@@ -1306,6 +1306,16 @@ TEST(Graph, AJunctionInASlabTooThickForItIsMeshedFromItsCells)
     expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 2.0);
 }
 
+// A crop of the smoke at iso 0.2, sliced along x: its last plane, x = 95, cuts a wall with holes
+// open past the box. The face was tiled in the plane, each hole to the arc of the wall nearest it,
+// and lay over the bays of a wall that its holes do not see whole: 2.44 voxels off at the top
+// level. A face the box cuts is meshed from its cells out to the empty plane past the box, as
+// volumeToMesh closes it, and the top level is within a voxel.
+TEST(Graph, ACutFaceIsMeshedFromItsCells)
+{
+    expectTopLevelOfTheIsosurfaceAlongX(smokeCrop({57, 32, 59}, {95, 63, 92}, 0.2));
+}
+
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
 {
     // The check the tool warns by (Cli.WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss): on trees whose
