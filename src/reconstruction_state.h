@@ -25,6 +25,13 @@ struct Reconstruction::SliceLoop {
     bool onPolygon = false; // no field traced it (a waist, makeWaist; a contour carried to a
                             // slab's middle, meetHalfway): rays are cut against its polygon
 };
+/// A slab's middle plane as splitBand sees it: its loops, and the pieces of either half slab.
+struct Reconstruction::BandMiddle {
+    bool traced = false;
+    double w = 0.0;
+    std::vector<SliceLoop> loops;
+    std::vector<SlabPiece> lowerHalf, upperHalf;
+};
 struct Reconstruction::TubeEnd {
     bool hasApex = false;      // false: the cap is flat, over the contour's own vertices
     bool fan = false;          // fan around the apex: the end contour is star-shaped at the

@@ -1316,6 +1316,36 @@ TEST(Graph, ACutFaceIsMeshedFromItsCells)
     expectTopLevelOfTheIsosurfaceAlongX(smokeCrop({57, 32, 59}, {95, 63, 92}, 0.2));
 }
 
+// A capsule along z with a ledge in one voxel plane between two slices (the slices lie 2 voxels
+// apart): 4 voxels wide and reaching 3 voxels past the wall, inside in that plane only (the
+// voxel planes beside it are outside there, up to 3 voxels). Neither slice sees it, and the band
+// between them passed about 3 voxels from its edge. The band takes the middle plane's loop, which strays from it, and the
+// top level is within a voxel of the isosurface, with its topology.
+TEST(Graph, ABandTakesTheMiddlePlaneWhereItsLoopStrays)
+{
+    for (const int ledge : {15, 16}) { // whichever of the two lies between the slices
+        SCOPED_TRACE(ledge);
+        constexpr int n = 32;
+        std::vector<float> values(n * n * n);
+        for (int x = 0; x < n; ++x)
+            for (int y = 0; y < n; ++y)
+                for (int z = 0; z < n; ++z) {
+                    const double along = std::max({6.0 - z, z - 26.0, 0.0}); // past the capsule's ends
+                    double value = std::hypot(std::hypot(x - 16.0, y - 16.0), along) - 6.0;
+                    if (z == ledge && x >= 16 && x <= 25 && y >= 14 && y <= 17) value = -1.0;
+                    values[(x * n + y) * n + z] = static_cast<float>(value);
+                }
+        DenseVolume dense;
+        dense.values = values.data();
+        dense.dims = {n, n, n};
+        const Volume volume = volumeFromDense(dense, VolumeOptions{}, "capsule with a ledge");
+        MeshOptions options;
+        options.slicing.axis = Axis::Z;
+        const Reconstruction reconstruction(volume, options);
+        expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+    }
+}
+
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
 {
     // The check the tool warns by (Cli.WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss): on trees whose

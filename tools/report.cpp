@@ -126,6 +126,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"unresolved", stats.unresolvedEvents},
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},
+          {"band_planes", stats.bandPlanes},
           {"cell_matches", stats.cellMatches},
           {"euler", stats.eventEuler},
           {"built_euler", stats.caps - stats.saddles + stats.patchEuler},

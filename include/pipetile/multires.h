@@ -93,6 +93,8 @@ struct ReconstructionStats {
     int tubes = 0;                 // segments: chains of contours joined one to one (bands), each
                                    // closed at either end by a cap, a rim or a junction
     int addedPlanes = 0;           // planes added between slices where an event lies (bisection)
+    int bandPlanes = 0;            // planes added inside a band alone, where the middle plane's loop
+                                   // strays from the band (splitBand)
     int cellMatches = 0;           // ranges between voxel planes cut again where the cells' Euler
                                    // characteristic showed a handle (graph.h)
     int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
@@ -226,6 +228,7 @@ private:
     struct Junction;
     struct Patch;
     struct SliceCounts;
+    struct BandMiddle;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
     /// (no field traced it); refined from `coarse` likewise.
@@ -253,6 +256,14 @@ private:
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
+    /// Planes for the band from loop `lowerLoop` of plane `below` to `upperLoop` of `above` alone,
+    /// down to a quarter of the events' thickness: the middle plane's loop, where it joins the two
+    /// one to one through either half and strays from the band's straight triangles, each added
+    /// as a plane holding that loop alone. `middle` is the slab's middle plane, traced on first
+    /// use and shared by the slab's bands. Appends the planes, in order of w, to `steps`.
+    void splitBand(int below, int lowerLoop, int above, int upperLoop, BandMiddle& middle, std::vector<int>& steps);
+    /// The graph's view of `loops`, a plane at w.
+    static PlaneLoops planeLoopsOf(const std::vector<SliceLoop>& loops, double w);
     /// The pieces of the slab between planes `below` and `above` meshed from its cells (graph.h,
     /// patchPieces); -1 for either is the empty plane past the grid's box on that side.
     std::vector<std::optional<SlabPatch>> patchesOf(int below, int above,
