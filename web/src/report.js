@@ -117,14 +117,19 @@ function startViewer(meshes) {
   const sun = new THREE.DirectionalLight(0xffffff, 1.5);
   scene.add(sun);
 
-  // Every level nests in the finest, so one box frames them all.
+  // Every level nests in the finest, so one box frames them all: its bounding sphere fits the
+  // narrower of the view's two angles, from whichever side the camera looks.
   const box = new THREE.Box3().setFromObject(meshes[meshes.length - 1]);
   const centre = box.getCenter(new THREE.Vector3());
   const radius = box.getSize(new THREE.Vector3()).length() / 2 || 1;
-  const camera = new THREE.PerspectiveCamera(40, view.clientWidth / view.clientHeight, radius / 100, radius * 100);
-  camera.position.copy(centre).add(new THREE.Vector3(0.9, 0.6, 1.4).multiplyScalar(radius * 1.3));
+  const fov = 40, aspect = view.clientWidth / view.clientHeight;
+  const halfAngle = Math.min(THREE.MathUtils.degToRad(fov / 2), Math.atan(Math.tan(THREE.MathUtils.degToRad(fov / 2)) * aspect));
+  const distance = (1.05 * radius) / Math.sin(halfAngle);
+  const camera = new THREE.PerspectiveCamera(fov, aspect, distance / 100, distance * 100);
+  camera.position.copy(centre).add(new THREE.Vector3(0.9, 0.6, 1.4).normalize().multiplyScalar(distance));
   const controls = new OrbitControls(camera, renderer.domElement);
   controls.target.copy(centre);
+  controls.update(); // the camera turns to the target (it looked at the origin)
 
   const hasError = meshes[0].geometry.getAttribute('_error') !== undefined;
   const redAt = data.glb.voxel_metres;

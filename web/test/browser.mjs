@@ -2,7 +2,8 @@
 // bench --html`, opened from disk in Debian's Chromium (headless, WebGL through SwiftShader): the
 // view draws, the level slider changes what is drawn to exactly that level's triangles, bench's
 // plot draws a Hausdorff and an RMS series per kind of method, no console error, no request.
-// usage: node browser.mjs PIPETILE [SCREENSHOT.png]
+// usage: node browser.mjs PIPETILE [SCREENSHOT.png]; with PIPETILE_REAL_DATA (the shared real data's
+// folder) the vmtk aorta's report too.
 import { execFileSync } from 'node:child_process';
 import { mkdtempSync, rmSync } from 'node:fs';
 import { tmpdir } from 'node:os';
@@ -27,6 +28,10 @@ run('sample', 'phantom', '-o', join(folder, 'phantom.vdb'));
 run('validate', join(folder, 'phantom.vdb'), join(folder, 'phantom_L1.ply'), '--html', validatePage);
 run('sample', 'straight', '-o', join(folder, 'straight.vdb'));
 run('bench', join(folder, 'straight.vdb'), '--repeat', '1', '--html', benchPage);
+// A tall, thin object: the aorta and its iliac arteries (its top was cut off the view).
+const realData = process.env.PIPETILE_REAL_DATA;
+const aortaPage = join(folder, 'aorta.html');
+if (realData) run('mesh', join(realData, 'vmtk_aorta_ls.vdb'), '-o', join(folder, 'aorta.glb'), '--html', aortaPage);
 
 const browser = await chromium.launch({
   executablePath: process.env.PIPETILE_CHROMIUM || '/usr/bin/chromium',
@@ -47,6 +52,26 @@ const drawnShare = (selector = '#view canvas') => {
   return drawn / (pixels.length / 4);
 };
 
+// Share of the pixels on the canvas's outermost two rows and columns that differ from the
+// background: 0 when the whole object lies inside the view.
+const edgeShare = (selector = '#view canvas') => {
+  const canvas = document.querySelector(selector);
+  const copy = document.createElement('canvas');
+  copy.width = canvas.width, copy.height = canvas.height;
+  const context = copy.getContext('2d');
+  context.drawImage(canvas, 0, 0);
+  const pixels = context.getImageData(0, 0, copy.width, copy.height).data;
+  let drawn = 0, edge = 0;
+  for (let y = 0; y < copy.height; ++y)
+    for (let x = 0; x < copy.width; ++x) {
+      if (x > 1 && y > 1 && x < copy.width - 2 && y < copy.height - 2) continue;
+      const i = 4 * (y * copy.width + x);
+      ++edge;
+      if (Math.abs(pixels[i] - 0xf4) + Math.abs(pixels[i + 1] - 0xf5) + Math.abs(pixels[i + 2] - 0xf7) > 24) ++drawn;
+    }
+  return drawn / edge;
+};
+
 async function checkPage(file, shot) {
   const page = await browser.newPage({ viewport: { width: 1100, height: 1000 } });
   const url = pathToFileURL(file).href;
@@ -62,6 +87,9 @@ async function checkPage(file, shot) {
   const levels = await page.evaluate(() => JSON.parse(document.getElementById('pipetile-data').textContent).levels);
   const share = await page.evaluate(drawnShare);
   check(share > 0.02, `${name}: the view is not blank (${(100 * share).toFixed(1)}% of its pixels drawn)`);
+  // The whole object is framed: nothing drawn touches the view's edges (the aorta's top was cut off).
+  const edge = await page.evaluate(edgeShare);
+  check(edge === 0, `${name}: the object lies inside the view (${(100 * edge).toFixed(1)}% of the edge drawn)`);
   // One mesh per frame: the triangles drawn are exactly the level's.
   const finest = levels.length - 1;
   let drawn = await page.evaluate(() => window.pipetile.trianglesDrawn);
@@ -104,6 +132,8 @@ try {
   await checkPage(meshPage, screenshot);
   await checkPage(validatePage);
   await checkPage(benchPage);
+  if (realData) await checkPage(aortaPage);
+  else console.log('skip aorta.html: PIPETILE_REAL_DATA is not set');
 } finally {
   await browser.close();
   rmSync(folder, { recursive: true, force: true });
