@@ -38,38 +38,24 @@ const browser = await chromium.launch({
   args: ['--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--no-sandbox'],
 });
 
-// Share of the canvas's pixels that differ from the background: 0 for a blank view.
-const drawnShare = (selector = '#view canvas') => {
-  const canvas = document.querySelector(selector);
+// Share of the view's pixels that differ from the background: 0 for a blank view. With `border`,
+// of the pixels on its outermost two rows and columns only: 0 when the whole object lies inside.
+const drawnShare = (border = false) => {
+  const canvas = document.querySelector('#view canvas');
   const copy = document.createElement('canvas');
   copy.width = canvas.width, copy.height = canvas.height;
   const context = copy.getContext('2d');
   context.drawImage(canvas, 0, 0);
   const pixels = context.getImageData(0, 0, copy.width, copy.height).data;
-  let drawn = 0;
-  for (let i = 0; i < pixels.length; i += 4)
-    if (Math.abs(pixels[i] - 0xf4) + Math.abs(pixels[i + 1] - 0xf5) + Math.abs(pixels[i + 2] - 0xf7) > 24) ++drawn;
-  return drawn / (pixels.length / 4);
-};
-
-// Share of the pixels on the canvas's outermost two rows and columns that differ from the
-// background: 0 when the whole object lies inside the view.
-const edgeShare = (selector = '#view canvas') => {
-  const canvas = document.querySelector(selector);
-  const copy = document.createElement('canvas');
-  copy.width = canvas.width, copy.height = canvas.height;
-  const context = copy.getContext('2d');
-  context.drawImage(canvas, 0, 0);
-  const pixels = context.getImageData(0, 0, copy.width, copy.height).data;
-  let drawn = 0, edge = 0;
+  let drawn = 0, counted = 0;
   for (let y = 0; y < copy.height; ++y)
     for (let x = 0; x < copy.width; ++x) {
-      if (x > 1 && y > 1 && x < copy.width - 2 && y < copy.height - 2) continue;
+      if (border && x > 1 && y > 1 && x < copy.width - 2 && y < copy.height - 2) continue;
       const i = 4 * (y * copy.width + x);
-      ++edge;
+      ++counted;
       if (Math.abs(pixels[i] - 0xf4) + Math.abs(pixels[i + 1] - 0xf5) + Math.abs(pixels[i + 2] - 0xf7) > 24) ++drawn;
     }
-  return drawn / edge;
+  return drawn / counted;
 };
 
 async function checkPage(file, shot) {
@@ -88,7 +74,7 @@ async function checkPage(file, shot) {
   const share = await page.evaluate(drawnShare);
   check(share > 0.02, `${name}: the view is not blank (${(100 * share).toFixed(1)}% of its pixels drawn)`);
   // The whole object is framed: nothing drawn touches the view's edges (the aorta's top was cut off).
-  const edge = await page.evaluate(edgeShare);
+  const edge = await page.evaluate(drawnShare, true);
   check(edge === 0, `${name}: the object lies inside the view (${(100 * edge).toFixed(1)}% of the edge drawn)`);
   // One mesh per frame: the triangles drawn are exactly the level's.
   const finest = levels.length - 1;
