@@ -1346,6 +1346,13 @@ TEST(Graph, ABandTakesTheMiddlePlaneWhereItsLoopStrays)
     }
 }
 
+// The same on real data: a crop of the smoke at iso 0.2, sliced along x, whose surface bulges
+// between two slices near x = 55, 1.05 voxels past the band between them at the top level.
+TEST(Graph, ABulgeBetweenSlicesOfTheSmokeTakesAPlane)
+{
+    expectTopLevelOfTheIsosurfaceAlongX(smokeCrop({52, 110, 27}, {97, 140, 54}, 0.2));
+}
+
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
 {
     // The check the tool warns by (Cli.WarnsWhenTheIsosurfaceHasHandlesTheSlabsMiss): on trees whose
