@@ -526,10 +526,14 @@ void Reconstruction::resolveEvents()
             }
             const bool joins = piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
                                (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2);
-            // An n:m piece is meshed from its cells where they close with its Euler characteristic:
-            // a waist is the walls' union, wider than the slab's middle where a wall ends inside
-            // the slab, and its fans stray there (the smoke's top level: 1.53 voxels off at one).
-            if (piece.kind == EventKind::Unresolved && patch && patch->euler == piece.euler()) {
+            // The cells mesh a piece, where they close with its Euler characteristic, before any
+            // construction from contours that would stray: an n:m piece (a waist is the walls'
+            // union, wider than the slab's middle where a wall ends inside the slab: the smoke's
+            // top level 1.53 voxels off at one), and a fork or merge whose slab stayed thicker than
+            // the events' thickness (a plane between voxel planes showed other pieces).
+            const bool thick = joins && mPositions[slab.above] - mPositions[slab.below] > kEventThickness;
+            if (thick && !patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+            if ((thick || piece.kind == EventKind::Unresolved) && patch && patch->euler == piece.euler()) {
                 joinPatch(slab, piece, std::move(*patch));
                 continue;
             }
@@ -547,15 +551,6 @@ void Reconstruction::resolveEvents()
                 mJunctions.push_back(std::move(merge));
                 mJunctions.push_back(std::move(fork));
                 continue;
-            }
-            // A fork or merge whose slab stayed thicker than the events' thickness (a plane
-            // between voxel planes showed other pieces) is meshed from its cells where they close.
-            if (joins && mPositions[slab.above] - mPositions[slab.below] > kEventThickness) {
-                if (!patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
-                if (patch && patch->euler == piece.euler()) {
-                    joinPatch(slab, piece, std::move(*patch));
-                    continue;
-                }
             }
             Junction junction;
             if (joins && makeJunction(slab, piece, junction)) {
