@@ -2100,13 +2100,15 @@ private:
     Ring ringOf(std::size_t i) const;
     void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
     void buildTrees();
-    // `byArea`: the contour trees' band was out of register and the minimum-area tiler's was taken.
+    // `byArea`: the contour trees' band was out of register and the least-area tiler's was taken.
     std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
                                     bool& byArea) const;
-    // A toroidal tiler's band (`kind` Optimal or Greedy) over the contours' world-space points:
-    // the baselines', and the contour trees' fallback.
+    // A toroidal tiler's band over the contours' world-space points: the baselines', and the
+    // contour trees' fallback.
+    using ToroidalTiler = std::vector<Triangle> (*)(const std::vector<glm::dvec3>&, const std::vector<glm::dvec3>&,
+                                                    ToroidalStats*);
     std::vector<Triangle> tileToroidal(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
-                                       TilerKind kind) const;
+                                       ToroidalTiler tiler) const;
     // Whether the band joins a point more than kOutOfRegister pixels farther than a point of the
     // other contour nearer it (about each contour's mean crossing): where the contour trees'
     // parses of two noisy contours' excursions differ.
@@ -2448,16 +2450,17 @@ std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide,
         std::vector<Triangle> band = tileBand(*lower, *upper);
         // Two noisy contours whose excursions the contour trees parse differently can be paired
         // far out of register (a ring tree's notch: crossings 12 pixels apart, 1.4 voxels off
-        // the surface): such a band, or junction part, is tiled by area instead.
+        // the surface): such a band, or junction part, is tiled by area instead, ties broken by
+        // the shorter spans (tileLeastAreaNearest).
         if (!outOfRegister(band, lowerSide, upperSide)) return band;
         byArea = true;
-        return tileToroidal(lowerSide, upperSide, bytes, TilerKind::Optimal);
+        return tileToroidal(lowerSide, upperSide, bytes, tileLeastAreaNearest);
     }
-    return tileToroidal(lowerSide, upperSide, bytes, mOptions.tiler);
+    return tileToroidal(lowerSide, upperSide, bytes, mOptions.tiler == TilerKind::Greedy ? tileGreedy : tileOptimal);
 }
 
 std::vector<Triangle> Reconstruction::Assembly::tileToroidal(const Side& lowerSide, const Side& upperSide,
-                                                             std::size_t& bytes, TilerKind kind) const
+                                                             std::size_t& bytes, ToroidalTiler tiler) const
 {
     // The baselines see the same contours as world-space points.
     const auto first = mesh.vertices.begin();
@@ -2466,7 +2469,7 @@ std::vector<Triangle> Reconstruction::Assembly::tileToroidal(const Side& lowerSi
     const std::vector<glm::dvec3> b(first + upperSide.first,
                                     first + upperSide.first + upperSide.contour->crossings.size());
     ToroidalStats stats;
-    std::vector<Triangle> band = kind == TilerKind::Greedy ? tileGreedy(a, b, &stats) : tileOptimal(a, b, &stats);
+    std::vector<Triangle> band = tiler(a, b, &stats);
     bytes += stats.bytes;
     // A strip that fans one point over the whole other contour is no manifold (the oblique
     // tube's tiny sections with --tiler optimal, before this).

@@ -53,6 +53,13 @@ double doubleArea(const glm::dvec3& p, const glm::dvec3& q, const glm::dvec3& r)
     return glm::length(glm::cross(q - p, r - p));
 }
 
+// Squared length of the spanning edge p - q.
+double squaredSpan(const glm::dvec3& p, const glm::dvec3& q)
+{
+    const glm::dvec3 d = q - p;
+    return glm::dot(d, d);
+}
+
 // The toroidal graph unrolled along the smaller contour X (p points) against Y (q points).
 // Vertex (x, y) is the spanning edge X[x mod p] - Y[y mod q]; a step in x adds the triangle
 // (X_x, X_x+1, Y_y), a step in y adds (X_x, Y_y, Y_y+1). Every acceptable surface passes through
@@ -68,9 +75,12 @@ public:
         std::uint32_t left(std::size_t y) const { return y == 0 ? start : right[y - 1]; }
     };
 
-    MinimalAreaSurface(const std::vector<glm::dvec3>& x, const std::vector<glm::dvec3>& y)
+    // Each step costs its triangle's (doubled) area, plus `spanWeight` times the squared length of
+    // the spanning edge it reaches (each of the surface's spans once).
+    MinimalAreaSurface(const std::vector<glm::dvec3>& x, const std::vector<glm::dvec3>& y, double spanWeight)
         : mP(static_cast<std::uint32_t>(x.size())),
-          mQ(static_cast<std::uint32_t>(y.size()))
+          mQ(static_cast<std::uint32_t>(y.size())),
+          mSpanWeight(spanWeight)
     {
         // Unrolled copies (x < 2p, y <= q) so the inner loops index without wrapping.
         mX.reserve(2 * mP);
@@ -155,10 +165,14 @@ private:
             // The row's triangle areas first: independent of each other, so they pipeline, and
             // the scan below only adds and compares.
             for (std::uint32_t x = begin; x < end; ++x) areaX[x - s] = doubleArea(mX[x], mX[x + 1], mY[y]);
+            if (mSpanWeight > 0.0)
+                for (std::uint32_t x = begin; x < end; ++x) areaX[x - s] += mSpanWeight * squaredSpan(mX[x + 1], mY[y]);
             if (y == 0)
                 cost[0] = 0.0;
             else
-                for (std::uint32_t x = begin; x <= prevEnd; ++x) cost[x - s] += doubleArea(mX[x], mY[y - 1], mY[y]);
+                for (std::uint32_t x = begin; x <= prevEnd; ++x)
+                    cost[x - s] += doubleArea(mX[x], mY[y - 1], mY[y]) +
+                                   (mSpanWeight > 0.0 ? mSpanWeight * squaredSpan(mX[x], mY[y]) : 0.0);
             for (std::uint32_t x = prevEnd + 1; x <= end; ++x) cost[x - s] = unreachable;
             put(false);
             for (std::uint32_t i = begin - s + 1; i <= end - s; ++i) {
@@ -207,6 +221,7 @@ private:
     }
 
     const std::uint32_t mP, mQ;
+    const double mSpanWeight;
     std::vector<glm::dvec3> mX, mY;     // X twice over, Y with its first point again at the end
     std::vector<std::uint64_t> mChoice; // per searched cell: 1 = reached by a step in x
     std::vector<double> mCost;          // path costs of the current row, indexed by x - s
@@ -219,15 +234,17 @@ private:
 
 } // namespace
 
-std::vector<Triangle> tileOptimal(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
-                                  ToroidalStats* stats)
+namespace {
+
+// The minimal surface of MinimalAreaSurface's cost, as a strip of triangles.
+std::vector<Triangle> tileMinimal(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
+                                  ToroidalStats* stats, double spanWeight)
 {
-    checkPair(a, b, "tileOptimal");
     const std::uint32_t m = static_cast<std::uint32_t>(a.size()), n = static_cast<std::uint32_t>(b.size());
     // Starts are tried along the smaller contour; area is symmetric in the two contours, so
     // swapping them changes only how steps map back to triangles.
     const bool alongA = m <= n;
-    MinimalAreaSurface surface(alongA ? a : b, alongA ? b : a);
+    MinimalAreaSurface surface(alongA ? a : b, alongA ? b : a, spanWeight);
     surface.solve();
     const MinimalAreaSurface::Path& path = surface.best();
 
@@ -253,6 +270,22 @@ std::vector<Triangle> tileOptimal(const std::vector<glm::dvec3>& a, const std::v
     PIPETILE_ASSERT(band.size() == static_cast<std::size_t>(m) + n, "an acceptable surface has m + n triangles");
     if (stats) stats->bytes = surface.bytes() + band.capacity() * sizeof(Triangle);
     return band;
+}
+
+} // namespace
+
+std::vector<Triangle> tileOptimal(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
+                                  ToroidalStats* stats)
+{
+    checkPair(a, b, "tileOptimal");
+    return tileMinimal(a, b, stats, 0.0);
+}
+
+std::vector<Triangle> tileLeastAreaNearest(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,
+                                           ToroidalStats* stats)
+{
+    checkPair(a, b, "tileLeastAreaNearest");
+    return tileMinimal(a, b, stats, kSpanWeight);
 }
 
 std::vector<Triangle> tileGreedy(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b,

@@ -323,4 +323,110 @@ TEST(Toroidal, ContoursWithFewerThanThreePointsOrNonFinitePointsAreRejected)
     bad[3].y = std::numeric_limits<double>::quiet_NaN();
     EXPECT_THROW(tileOptimal(good, bad), Error);
     EXPECT_THROW(tileGreedy(bad, good), Error);
+    EXPECT_THROW(tileLeastAreaNearest(good, two), Error);
+    EXPECT_THROW(tileLeastAreaNearest(bad, good), Error);
+}
+
+namespace {
+
+// tileLeastAreaNearest's cost of a band: twice its area, plus kSpanWeight times the squared length
+// of each spanning edge once.
+double leastAreaNearestCost(const std::vector<Triangle>& band, const std::vector<glm::dvec3>& a,
+                            const std::vector<glm::dvec3>& b)
+{
+    const std::uint32_t m = static_cast<std::uint32_t>(a.size());
+    std::set<std::pair<std::uint32_t, std::uint32_t>> spans;
+    for (const Triangle& t : band)
+        for (int k = 0; k < 3; ++k) {
+            const std::uint32_t p = t[k], q = t[(k + 1) % 3];
+            if ((p < m) != (q < m)) spans.insert({std::min(p, q), std::max(p, q)});
+        }
+    double cost = 2.0 * bandArea(band, a, b);
+    for (const auto& [p, q] : spans) {
+        const glm::dvec3 d = vertex(q, a, b) - vertex(p, a, b);
+        cost += kSpanWeight * glm::dot(d, d);
+    }
+    return cost;
+}
+
+// The same cost's minimum by plain dynamic programming over every start on A, as
+// perStartMinimumArea: a step in A reaches the span a_(i+1) - b_j, a step in B the span a_i - b_(j+1).
+double perStartMinimumLeastAreaNearest(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b)
+{
+    const std::size_t m = a.size(), n = b.size();
+    const auto span2 = [](const glm::dvec3& p, const glm::dvec3& q) { return glm::dot(q - p, q - p); };
+    double best = std::numeric_limits<double>::infinity();
+    std::vector<double> table((m + 1) * (n + 1));
+    for (std::size_t i0 = 0; i0 < m; ++i0) {
+        for (std::size_t i = 0; i <= m; ++i)
+            for (std::size_t j = 0; j <= n; ++j) {
+                const glm::dvec3 &ai = a[(i0 + i) % m], &bj = b[j % n];
+                double cost = i == 0 && j == 0 ? 0.0 : std::numeric_limits<double>::infinity();
+                if (i > 0)
+                    cost =
+                        std::min(cost, table[(i - 1) * (n + 1) + j] + 2.0 * triangleArea(a[(i0 + i - 1) % m], ai, bj) +
+                                           kSpanWeight * span2(ai, bj));
+                if (j > 0)
+                    cost = std::min(cost, table[i * (n + 1) + j - 1] + 2.0 * triangleArea(ai, bj, b[(j - 1) % n]) +
+                                              kSpanWeight * span2(ai, bj));
+                table[i * (n + 1) + j] = cost;
+            }
+        best = std::min(best, table.back());
+    }
+    return best;
+}
+
+// A long thin loop at height z, counterclockwise seen from +z: its long sides (y = 0 and y = 2,
+// from x = 0 to 24) hold a point every 4 units from x = `offset`, and one point at each rounded
+// end. With `bow`, the sides' points lie `bow` farther out, all but the middle one of each.
+std::vector<glm::dvec3> longLoop(double z, double offset, double bow)
+{
+    std::vector<glm::dvec3> points;
+    for (double x = offset; x <= 24.0; x += 4.0) points.push_back({x, x == 12.0 + offset ? 0.0 : -bow, z});
+    points.push_back({26.0, 1.0, z});
+    for (double x = 24.0 - offset; x >= 0.0; x -= 4.0) points.push_back({x, x == 12.0 - offset ? 2.0 : 2.0 + bow, z});
+    points.push_back({-2.0, 1.0, z});
+    return points;
+}
+
+} // namespace
+
+TEST(Toroidal, LeastAreaNearestMatchesPlainDynamicProgrammingOverEveryStart)
+{
+    // The spans' cost keeps FKU's bisection over starts exact: minimal paths still do not cross.
+    std::mt19937 rng(7);
+    for (const auto& [m, n] :
+         std::vector<std::pair<std::size_t, std::size_t>>{{6, 6}, {7, 19}, {19, 7}, {31, 33}, {3, 50}}) {
+        for (int trial = 0; trial < 3; ++trial) {
+            SCOPED_TRACE(std::to_string(m) + " x " + std::to_string(n) + ", trial " + std::to_string(trial));
+            const auto a = randomContour(m, 0.0, rng), b = randomContour(n, 1.0, rng);
+            const double reference = perStartMinimumLeastAreaNearest(a, b);
+            EXPECT_NEAR(leastAreaNearestCost(tileLeastAreaNearest(a, b), a, b), reference, 1e-9 * reference);
+        }
+    }
+}
+
+TEST(Toroidal, LeastAreaNearestPairsNearestPointsAcrossAThinSlab)
+{
+    // Two long thin loops an eighth apart, their points 4 apart along the long sides and offset by
+    // 1, the upper loop's sides a twentieth farther out but at their middle points: a strip's
+    // area is its chords' length times the distance between the sides, so least area joins every
+    // chord of the lower loop to the upper loop's nearest point, in fans 9 long (a capsule
+    // tree's trunk, sliced across, had such fans 25 voxels long). With the spans each point joins
+    // the other loop's points at most one spacing (4) away in the plane.
+    const auto a = longLoop(0.0, 0.0, 0.0), b = longLoop(0.125, 1.0, 0.05);
+    const auto longestSpan = [&](const std::vector<Triangle>& band) {
+        double longest = 0.0;
+        for (const Triangle& t : band)
+            for (int k = 0; k < 3; ++k) {
+                const std::uint32_t p = t[k], q = t[(k + 1) % 3];
+                if ((p < a.size()) == (q < a.size())) continue;
+                glm::dvec3 d = vertex(q, a, b) - vertex(p, a, b);
+                d.z = 0.0;
+                longest = std::max(longest, glm::length(d));
+            }
+        return longest;
+    };
+    EXPECT_GT(longestSpan(tileOptimal(a, b)), 8.0); // else the case is not shown
+    EXPECT_LE(longestSpan(tileLeastAreaNearest(a, b)), 4.0);
 }
