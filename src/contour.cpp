@@ -1205,6 +1205,21 @@ std::vector<int> strayingChords(const Contour& contour, const LoopView& view, do
     return sortedOnce(std::move(sectors));
 }
 
+std::vector<int> longChords(const Contour& contour, double length)
+{
+    std::vector<int> sectors;
+    const std::size_t count = contour.crossings.size();
+    const int n = contour.rays.count();
+    for (std::size_t k = 0; k < count; ++k) {
+        const Crossing& a = contour.crossings[k];
+        const Crossing& b = contour.crossings[(k + 1) % count];
+        if (a.ray == b.ray) continue;
+        const glm::dvec2 chord = b.point - a.point;
+        if (glm::dot(chord, chord) > length * length) sectors.push_back((b.ray + n - a.ray) % n == 1 ? a.ray : b.ray);
+    }
+    return sortedOnce(std::move(sectors));
+}
+
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)
 {
     const bool fromInOut = from.kind == CrossingKind::InOut, toInOut = to.kind == CrossingKind::InOut;

@@ -1995,6 +1995,13 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
     constexpr double kFoldTolerance = 0.5;
     const bool top = level == mOptions.levels - 1;
     const std::size_t groups = mTubes.size(); // group ids are tube indices
+    // A triangle of a band across a slab t thick, on a chord L long, has an aspect ratio of at
+    // least sqrt(3)/2 L / t where the surface stands square to the planes (its height over the
+    // chord is t): past kLargestAspect whatever the tiling once L > 2 / sqrt(3) kLargestAspect t.
+    // An event's slabs are an eighth of a voxel thick, and rays from a central point far along a
+    // straight wall meet it up to 25 voxels apart. A contour halves such chords, at every level.
+    const double longestChord = 2.0 / std::sqrt(3.0) * kLargestAspect;
+    const std::vector<double> thinnest = thinnestSlabs();
     for (int round = 0; round <= (top ? RaySet::kFoldDepth : RaySet::kFoldHalvings); ++round) {
         std::vector<std::vector<std::vector<int>>> flagged(mLoops.size()); // per plane, per loop
         forEachIndex(mOptions.threads, mLoops.size(), [&](std::size_t s) {
@@ -2004,6 +2011,9 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
                 if (mLoops[s][l].group < 0 || contour.crossings.empty()) continue;
                 for (int x : hiddenFolds(contour, mLoops[s][l].view, kFoldTolerance))
                     if (contour.rays.canHalve(x, RaySet::kFoldHalvings)) flagged[s].back().push_back(x);
+                const int halvings = top ? RaySet::kFoldDepth : RaySet::kFoldHalvings;
+                for (int x : longChords(contour, longestChord * thinnest[s]))
+                    if (contour.rays.canHalve(x, halvings)) flagged[s].back().push_back(x);
                 if (!top) continue;
                 const std::vector<int> cut = strayingChords(contour, mLoops[s][l].view, kFoldTolerance);
                 flagged[s].back().insert(flagged[s].back().end(), cut.begin(), cut.end());
@@ -2042,6 +2052,20 @@ void Reconstruction::addFoldRays(Contours& contours, int level) const
             }
         });
     }
+}
+
+std::vector<double> Reconstruction::thinnestSlabs() const
+{
+    std::vector<double> sorted = mPositions;
+    std::sort(sorted.begin(), sorted.end());
+    sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+    std::vector<double> thinnest(mPositions.size(), std::numeric_limits<double>::infinity());
+    for (std::size_t s = 0; s < mPositions.size(); ++s) {
+        const auto at = std::lower_bound(sorted.begin(), sorted.end(), mPositions[s]);
+        if (at != sorted.begin()) thinnest[s] = *at - *(at - 1);
+        if (at + 1 != sorted.end()) thinnest[s] = std::min(thinnest[s], *(at + 1) - *at);
+    }
+    return thinnest;
 }
 
 // One level's mesh as assemble() puts it together. The constructor numbers every vertex (the

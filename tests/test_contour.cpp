@@ -455,3 +455,23 @@ TEST(Contour, WaistAroundJoinsWallsIntoOneLoop)
     for (const std::vector<glm::dvec2>* wall : {&a, &apart})
         for (const glm::dvec2& p : *wall) EXPECT_TRUE(encloses(grown, p)) << p.x << ", " << p.y;
 }
+
+TEST(Contour, LongChordsAreTheSectorsWhoseCrossingsLieFarApart)
+{
+    // A rectangle 40 by 4 around the central point, cast with 8 rays: rays 0 and 4 meet its ends
+    // at (±20, 0), the others its long sides at (±2, ±2) and (0, ±2). The chords from an end to
+    // the nearest side crossing, sectors 0, 3, 4 and 7, are sqrt(18² + 2²) = 18.11 long; the
+    // others 2.
+    const LoopView view = viewOfPolygon({{-20, -2}, {20, -2}, {20, 2}, {-20, 2}}, {0, 0});
+    const Contour contour = castPolygon(view, RaySet{8, 0});
+    ASSERT_EQ(contour.crossings.size(), 8u);
+    EXPECT_EQ(longChords(contour, 2.5), (std::vector<int>{0, 3, 4, 7}));
+    EXPECT_EQ(longChords(contour, 18.0), (std::vector<int>{0, 3, 4, 7}));
+    EXPECT_TRUE(longChords(contour, 18.2).empty());
+    EXPECT_EQ(longChords(contour, 1.9).size(), 8u);
+    // Halved, sector 0's new ray (22.5°) meets the side at x = 2 / tan 22.5° = 4.83: the chord
+    // from the end, 15.3 long, is sector 0's, and the one to (2, 2), 2.83, is sector 1's.
+    const Contour halved = castPolygon(view, RaySet{8, 0}.withMidpoints({0}));
+    EXPECT_EQ(longChords(halved, 15.0), (std::vector<int>{0, 4, 5, 8}));
+    EXPECT_EQ(longChords(halved, 15.5), (std::vector<int>{4, 5, 8}));
+}

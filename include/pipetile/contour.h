@@ -236,6 +236,12 @@ std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, doubl
 /// branch's rounded tip far from the central point, seen by rays a few voxels apart there).
 std::vector<int> strayingChords(const Contour& contour, const LoopView& view, double tolerance);
 
+/// Chords longer than `length` pixels between crossings of two neighbouring rays: sectors
+/// (ascending, once each). A band across a thin slab has triangles as long as its chords and about
+/// as high as the slab: needles where the chords are long (a straight wall seen from a central
+/// point far along it).
+std::vector<int> longChords(const Contour& contour, double length);
+
 /// Edge type from two consecutive crossings (DESIGN.md, Edge types): integers only.
 /// @throw InternalError if their rays and kinds fit no edge type: the walk that ordered them is
 ///        broken (a bug).

@@ -208,12 +208,16 @@ private:
     /// Rays where folds hide detail (contour.h, hiddenFolds): each ray group (a tube, or the two
     /// walls of a hollow pipe joined by an annulus, which share one band) halves every sector
     /// that a fold of any of its contours flags, and its contours are refined with the new rays,
-    /// until no fold is flagged or the sectors are halved RaySet::kFoldHalvings times. A sector's
+    /// until no fold is flagged or the sectors are halved RaySet::kFoldHalvings times. So are
+    /// sectors whose chords are too long for the thinnest slab beside their plane (contour.h,
+    /// longChords): no tiling of such a band keeps its triangles under kLargestAspect. A sector's
     /// flag depends on its two rays alone, so the rays added at level L are added again at L+1:
     /// levels still nest, and a refined level equals the level built from scratch. The top level
     /// also halves sectors whose edges cut corners (contour.h, strayingChords), up to
     /// RaySet::kFoldDepth times; no level is built from it, so nesting holds.
     void addFoldRays(Contours& contours, int level) const;
+    // Per plane of mPositions: the distance to the nearest other plane (index units, as pixels).
+    std::vector<double> thinnestSlabs() const;
     /// The level's mesh from its contours: bands, caps and junctions (Assembly, multires.cpp).
     /// The vertices of `coarser` (the level below's, empty for level 0) stay (quality.h,
     /// collapseNeedleEdges).
