@@ -2871,8 +2871,8 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
         std::vector<glm::dvec3> lowerPoints, upperPoints;
         for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
         for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-        triangles = withoutFullFans(tileOptimal(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
-                                    static_cast<std::uint32_t>(upper.size()));
+        triangles = withoutFullFans(tileLeastAreaNearest(lowerPoints, upperPoints),
+                                    static_cast<std::uint32_t>(lower.size()), static_cast<std::uint32_t>(upper.size()));
         for (Triangle& t : triangles) {
             for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
             if (flip) std::swap(t[1], t[2]);
