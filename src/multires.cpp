@@ -905,11 +905,18 @@ bool Reconstruction::splitJunction(Junction& junction) const
     // A ring whose hole the partners do not share out (splitIntoArcs) is cut open where the
     // partners' plane is outside, the gap its material closes, and split as one contour.
     std::vector<glm::dvec2> keyholed;
-    if (!splitIntoArcs(polygon, inner, partners, junction)) {
-        const auto blocked = [&](const glm::dvec2& point) { return plane.sampleAt(point, wPartners) < 0.0; };
-        if (!inner || !chooseKeyhole(polygon, *inner, blocked, junction.keyhole)) return false;
-        keyholed = keyholePolygon(polygon, *inner, junction.keyhole);
-        if (!splitIntoArcs(keyholed, nullptr, partners, junction)) return false;
+    const auto blocked = [&](const glm::dvec2& point) { return plane.sampleAt(point, wPartners) < 0.0; };
+    if (!splitIntoArcs(polygon, inner, partners, junction, blocked)) {
+        if (!inner) return false;
+        if (chooseKeyhole(polygon, *inner, blocked, junction.keyhole))
+            keyholed = keyholePolygon(polygon, *inner, junction.keyhole);
+        if (keyholed.empty() || !splitIntoArcs(keyholed, nullptr, partners, junction)) {
+            // No keyhole splits: the hole's cuts nearest the wall's, whatever their chords cross.
+            static_cast<JunctionArcs&>(junction) = JunctionArcs{};
+            junction.keyhole = Keyhole{};
+            keyholed.clear();
+            if (!splitIntoArcs(polygon, inner, partners, junction)) return false;
+        }
     }
     const Keyhole& keyhole = junction.keyhole;
     const std::vector<glm::dvec2>& single = keyhole.open() ? keyholed : polygon;

@@ -334,6 +334,25 @@ TEST(Graph, ArcsOfAPeanutGoToItsLobes)
     EXPECT_FALSE(splitIntoArcs(circle({-5.0, 0.0}, 3.0, 3.0, 32), nullptr, {&left, &far}, none));
 }
 
+TEST(Graph, AHoleOnOnePartnersSideIsNoGapBetweenThePartners)
+{
+    // A peanut's ellipse (10 x 4) over its two lobes, with a hole of radius 0.5 at (6, 0), in the
+    // right lobe's side: every point of the hole is nearest the right lobe. Its cuts nearest the
+    // wall's (x = 0, y = +-4) lie 6 pixels away, across the right lobe's material: where the
+    // partners' plane is inside there, they are refused (a keyhole on that side cuts the ring
+    // open instead); where it is outside along them (a gap about to part), they stand.
+    const std::vector<glm::dvec2> wall = circle({0.0, 0.0}, 10.0, 4.0, 64),
+                                  hole = circle({6.0, 0.0}, 0.5, 0.5, 8, true);
+    const std::vector<glm::dvec2> left = circle({-5.0, 0.0}, 4.0, 4.0, 32), right = circle({5.0, 0.0}, 4.0, 4.0, 32);
+    JunctionArcs nearest;
+    ASSERT_TRUE(splitIntoArcs(wall, &hole, {&left, &right}, nearest));
+    EXPECT_EQ(nearest.innerCuts.size(), 2u);
+    JunctionArcs refused;
+    EXPECT_FALSE(splitIntoArcs(wall, &hole, {&left, &right}, refused, [](const glm::dvec2&) { return true; }));
+    JunctionArcs gap;
+    EXPECT_TRUE(splitIntoArcs(wall, &hole, {&left, &right}, gap, [](const glm::dvec2&) { return false; }));
+}
+
 TEST(Graph, AKeyholeCutsARingOpenThroughThePartnersGap)
 {
     // A wall of radius 10 around a hole of radius 2 at (3, 0), both counterclockwise. The partners'
@@ -1352,6 +1371,21 @@ TEST(Graph, ABandTakesTheMiddlePlaneWhereItsLoopStrays)
 TEST(Graph, ABulgeBetweenSlicesOfTheSmokeTakesAPlane)
 {
     expectTopLevelOfTheIsosurfaceAlongX(smokeCrop({52, 110, 27}, {97, 140, 54}, 0.2));
+}
+
+// AHoleOnOnePartnersSideIsNoGapBetweenThePartners in a crop of the smoke at iso 0.2, sliced along z: at z = 40.5 a lobe forks off a
+// body with a one-pixel hole, which opens into the body's side by 40.75. The hole was cut where
+// it is nearest the neck, 7 pixels across the body, and the lobe's band closed over that stretch
+// of the plane inside the body: 2.31 voxels from the isosurface at the top level. A keyhole
+// through the pixel the partners' plane has opened cuts the ring instead: within a voxel.
+TEST(Graph, AHoleThatOpensIntoOnePartnersSideIsCutOpenByAKeyhole)
+{
+    const Volume volume = smokeCrop({69, 95, 25}, {94, 117, 59}, 0.2);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    EXPECT_GE(reconstruction.stats().keyholes, 1);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
 }
 
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)

@@ -192,9 +192,13 @@ struct JunctionArcs {
 };
 
 /// Splits `single` (and, for a ring, the hole `inner` inside it; null otherwise) into arcs by
-/// `partners`. False if the arcs do not close any of the ways JunctionArcs describes.
+/// `partners`. False if the arcs do not close any of the ways JunctionArcs describes. A ring's
+/// hole that one partner is nearest all of is cut where it is nearest the wall's cuts (a gap
+/// about to part), unless a chord to it crosses more than a pixel where `blocked` holds (the
+/// partners' plane is inside: the hole opens elsewhere, and a keyhole cuts the ring open there).
 bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm::dvec2>* inner,
-                   const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs);
+                   const std::vector<const std::vector<glm::dvec2>*>& partners, JunctionArcs& arcs,
+                   const std::function<bool(const glm::dvec2&)>& blocked = {});
 
 /// A ring (a wall and its hole, both counterclockwise) cut open into one composite contour
 /// (TOPOLOGY.md's bridge, for a lumen that opens or closes): a slit from the wall's segment
