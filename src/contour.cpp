@@ -1172,6 +1172,22 @@ std::vector<int> sortedOnce(std::vector<int> sectors)
     return sectors;
 }
 
+// The sectors (ascending, once each) of the chords between crossings of two neighbouring rays
+// that `keep` takes: keep(k, a, b) for the chord from crossing k (a) to crossing k + 1 (b).
+template <class Keep>
+std::vector<int> chordSectors(const Contour& contour, const Keep& keep)
+{
+    std::vector<int> sectors;
+    const std::size_t count = contour.crossings.size();
+    const int n = contour.rays.count();
+    for (std::size_t k = 0; k < count; ++k) {
+        const Crossing& a = contour.crossings[k];
+        const Crossing& b = contour.crossings[(k + 1) % count];
+        if (a.ray != b.ray && keep(k, a, b)) sectors.push_back((b.ray + n - a.ray) % n == 1 ? a.ray : b.ray);
+    }
+    return sortedOnce(std::move(sectors));
+}
+
 } // namespace
 
 std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, double tolerance)
@@ -1192,32 +1208,17 @@ std::vector<int> hiddenFolds(const Contour& contour, const LoopView& view, doubl
 
 std::vector<int> strayingChords(const Contour& contour, const LoopView& view, double tolerance)
 {
-    std::vector<int> sectors;
-    const std::size_t count = contour.crossings.size();
-    const int n = contour.rays.count();
-    for (std::size_t k = 0; k < count; ++k) {
-        const Crossing& a = contour.crossings[k];
-        const Crossing& b = contour.crossings[(k + 1) % count];
-        if (a.ray == b.ray || a.segment == b.segment) continue;
-        if (strayFromChord(contour, view, k).first > tolerance * tolerance)
-            sectors.push_back((b.ray + n - a.ray) % n == 1 ? a.ray : b.ray);
-    }
-    return sortedOnce(std::move(sectors));
+    return chordSectors(contour, [&](std::size_t k, const Crossing& a, const Crossing& b) {
+        return a.segment != b.segment && strayFromChord(contour, view, k).first > tolerance * tolerance;
+    });
 }
 
 std::vector<int> longChords(const Contour& contour, double length)
 {
-    std::vector<int> sectors;
-    const std::size_t count = contour.crossings.size();
-    const int n = contour.rays.count();
-    for (std::size_t k = 0; k < count; ++k) {
-        const Crossing& a = contour.crossings[k];
-        const Crossing& b = contour.crossings[(k + 1) % count];
-        if (a.ray == b.ray) continue;
+    return chordSectors(contour, [&](std::size_t, const Crossing& a, const Crossing& b) {
         const glm::dvec2 chord = b.point - a.point;
-        if (glm::dot(chord, chord) > length * length) sectors.push_back((b.ray + n - a.ray) % n == 1 ? a.ray : b.ray);
-    }
-    return sortedOnce(std::move(sectors));
+        return glm::dot(chord, chord) > length * length;
+    });
 }
 
 EdgeType classifyEdge(const Crossing& from, const Crossing& to, int rayCount)

@@ -100,21 +100,28 @@ double exhaustiveMinimumArea(const std::vector<glm::dvec3>& a, const std::vector
 
 // The same minimum by plain dynamic programming: every acceptable surface passes through a
 // spanning edge from B's point 0, so one full (m + 1) x (n + 1) table per start on A covers them all.
-double perStartMinimumArea(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b)
+// Each step costs its triangle's area, plus `spanWeight` / 2 times the squared length of the span it
+// reaches (a step in A the span a_(i+1) - b_j, a step in B the span a_i - b_(j+1)): with a weight,
+// half of tileLeastAreaNearest's cost, which doubles the area.
+double perStartMinimum(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b, double spanWeight = 0.0)
 {
     const std::size_t m = a.size(), n = b.size();
+    const auto span = [&](const glm::dvec3& p, const glm::dvec3& q) {
+        return 0.5 * spanWeight * glm::dot(q - p, q - p);
+    };
     double best = std::numeric_limits<double>::infinity();
     std::vector<double> table((m + 1) * (n + 1));
     for (std::size_t i0 = 0; i0 < m; ++i0) {
         for (std::size_t i = 0; i <= m; ++i)
             for (std::size_t j = 0; j <= n; ++j) {
+                const glm::dvec3 &ai = a[(i0 + i) % m], &bj = b[j % n];
                 double cost = i == 0 && j == 0 ? 0.0 : std::numeric_limits<double>::infinity();
                 if (i > 0)
-                    cost = std::min(cost, table[(i - 1) * (n + 1) + j] +
-                                              triangleArea(a[(i0 + i - 1) % m], a[(i0 + i) % m], b[j % n]));
+                    cost = std::min(cost, table[(i - 1) * (n + 1) + j] + triangleArea(a[(i0 + i - 1) % m], ai, bj) +
+                                              span(ai, bj));
                 if (j > 0)
-                    cost = std::min(cost, table[i * (n + 1) + j - 1] +
-                                              triangleArea(a[(i0 + i) % m], b[j % n], b[(j - 1) % n]));
+                    cost = std::min(cost,
+                                    table[i * (n + 1) + j - 1] + triangleArea(ai, bj, b[(j - 1) % n]) + span(ai, bj));
                 table[i * (n + 1) + j] = cost;
             }
         best = std::min(best, table.back());
@@ -203,7 +210,7 @@ TEST(Toroidal, OptimalMatchesPlainDynamicProgrammingOverEveryStart)
         for (int trial = 0; trial < 3; ++trial) {
             SCOPED_TRACE(std::to_string(m) + " x " + std::to_string(n) + ", trial " + std::to_string(trial));
             const auto a = randomContour(m, 0.0, rng), b = randomContour(n, 1.0, rng);
-            const double reference = perStartMinimumArea(a, b);
+            const double reference = perStartMinimum(a, b);
             EXPECT_NEAR(bandArea(tileOptimal(a, b), a, b), reference, 1e-9 * reference);
         }
     }
@@ -349,33 +356,6 @@ double leastAreaNearestCost(const std::vector<Triangle>& band, const std::vector
     return cost;
 }
 
-// The same cost's minimum by plain dynamic programming over every start on A, as
-// perStartMinimumArea: a step in A reaches the span a_(i+1) - b_j, a step in B the span a_i - b_(j+1).
-double perStartMinimumLeastAreaNearest(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b)
-{
-    const std::size_t m = a.size(), n = b.size();
-    const auto span2 = [](const glm::dvec3& p, const glm::dvec3& q) { return glm::dot(q - p, q - p); };
-    double best = std::numeric_limits<double>::infinity();
-    std::vector<double> table((m + 1) * (n + 1));
-    for (std::size_t i0 = 0; i0 < m; ++i0) {
-        for (std::size_t i = 0; i <= m; ++i)
-            for (std::size_t j = 0; j <= n; ++j) {
-                const glm::dvec3 &ai = a[(i0 + i) % m], &bj = b[j % n];
-                double cost = i == 0 && j == 0 ? 0.0 : std::numeric_limits<double>::infinity();
-                if (i > 0)
-                    cost =
-                        std::min(cost, table[(i - 1) * (n + 1) + j] + 2.0 * triangleArea(a[(i0 + i - 1) % m], ai, bj) +
-                                           kSpanWeight * span2(ai, bj));
-                if (j > 0)
-                    cost = std::min(cost, table[i * (n + 1) + j - 1] + 2.0 * triangleArea(ai, bj, b[(j - 1) % n]) +
-                                              kSpanWeight * span2(ai, bj));
-                table[i * (n + 1) + j] = cost;
-            }
-        best = std::min(best, table.back());
-    }
-    return best;
-}
-
 // A long thin loop at height z, counterclockwise seen from +z: its long sides (y = 0 and y = 2,
 // from x = 0 to 24) hold a point every 4 units from x = `offset`, and one point at each rounded
 // end. With `bow`, the sides' points lie `bow` farther out, all but the middle one of each.
@@ -400,7 +380,7 @@ TEST(Toroidal, LeastAreaNearestMatchesPlainDynamicProgrammingOverEveryStart)
         for (int trial = 0; trial < 3; ++trial) {
             SCOPED_TRACE(std::to_string(m) + " x " + std::to_string(n) + ", trial " + std::to_string(trial));
             const auto a = randomContour(m, 0.0, rng), b = randomContour(n, 1.0, rng);
-            const double reference = perStartMinimumLeastAreaNearest(a, b);
+            const double reference = 2.0 * perStartMinimum(a, b, kSpanWeight);
             EXPECT_NEAR(leastAreaNearestCost(tileLeastAreaNearest(a, b), a, b), reference, 1e-9 * reference);
         }
     }
