@@ -113,10 +113,11 @@ constexpr double kEndInset = 0.25;
 constexpr double kOutOfRegister = 3.0;
 // Pixels past the other contour's point nearest it that a band's spanning edge may reach before the
 // band goes to the least-area tiler (outOfRegister). Once 3 pixels, as above; since that tiler
-// pairs nearest points where area cannot tell tilings apart (tileLeastAreaNearest), a pixel and a
-// half: the smoke's top level went from 1.01 to 0.78 voxels off (13 of its 31 validated runs more
-// than a voxel off to 10), for 5 more needles over 100 among the evaluation's 944 levels.
-constexpr double kBandOutOfRegister = 1.5;
+// pairs nearest points where area cannot tell tilings apart (tileLeastAreaNearest), 2: the smoke's
+// top level went from 1.01 to 0.78 voxels off (13 of its 31 validated runs more than a voxel off
+// to 12), with 3 fewer needles over 100 among the evaluation's 944 levels. 1.5 brought two more
+// runs within a voxel, for 8 more needles (one of aspect 679 on a crop's top level).
+constexpr double kBandOutOfRegister = 2.0;
 // Pixels a section's centroid can move per voxel along the axis while the tube travels: a slope
 // of 16, a wall within 3.6 degrees of the slicing plane (followedCentre).
 constexpr double kSteepestTravel = 16.0;
