@@ -1343,7 +1343,6 @@ bool crossesPolygon(const glm::dvec2& a, const glm::dvec2& b, const std::vector<
 bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
                    const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole)
 {
-    constexpr double kStep = 0.25; // pixels between the samples of `blocked` along the slit
     keyhole = Keyhole{};
     const int walls = static_cast<int>(wall.size()), holes = static_cast<int>(hole.size());
     if (walls < 3 || holes < 3) return false;
@@ -1372,11 +1371,7 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
         const glm::dvec2 &h0 = hole[slit.hole], &h1 = hole[(slit.hole + 1) % holes];
         // The slit's quadrilateral, counterclockwise, with crossings w0-h0 and w1-h1.
         if (cross(w1 - w0, h1 - w0) + cross(h1 - w0, h0 - w0) <= 0.0 || segmentsCross(w0, h0, w1, h1)) continue;
-        double stretch = 0.0;
-        const int samples = static_cast<int>(std::ceil(slit.length / kStep));
-        const glm::dvec2 from = 0.5 * (w0 + w1), to = 0.5 * (h0 + h1);
-        for (int s = 0; s <= samples; ++s)
-            if (blocked(glm::mix(from, to, samples > 0 ? static_cast<double>(s) / samples : 0.0))) stretch += kStep;
+        const double stretch = blockedStretch(0.5 * (w0 + w1), 0.5 * (h0 + h1), blocked);
         if (stretch >= bestBlocked) continue;
         if (crossesPolygon(w0, h0, wall) || crossesPolygon(w0, h0, hole) || crossesPolygon(w1, h1, wall) ||
             crossesPolygon(w1, h1, hole))
