@@ -46,7 +46,8 @@ struct AddedRays {
 /// added where folds hide detail (`added`; then ray indices count those too).
 struct RaySet {
     static constexpr int kFoldHalvings = 2; // a sector is halved at most twice for a fold
-    static constexpr int kFoldDepth = 3;    // and once more for a straying chord (top level)
+    static constexpr int kFoldDepth = 3;    // and once more for a straying chord (top level) or a
+                                            // chord too long for its slab (every level)
 
     RaySet(int baseRays = 8, int level = 0, std::shared_ptr<const AddedRays> added = nullptr)
         : baseRays(baseRays),

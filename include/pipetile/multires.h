@@ -210,7 +210,8 @@ private:
     /// that a fold of any of its contours flags, and its contours are refined with the new rays,
     /// until no fold is flagged or the sectors are halved RaySet::kFoldHalvings times. So are
     /// sectors whose chords are too long for the thinnest slab beside their plane (contour.h,
-    /// longChords): no tiling of such a band keeps its triangles under kLargestAspect. A sector's
+    /// longChords), up to RaySet::kFoldDepth times: no tiling of such a band keeps its triangles
+    /// under kLargestAspect. A sector's
     /// flag depends on its two rays alone, so the rays added at level L are added again at L+1:
     /// levels still nest, and a refined level equals the level built from scratch. The top level
     /// also halves sectors whose edges cut corners (contour.h, strayingChords), up to
