@@ -211,11 +211,11 @@ private:
     /// until no fold is flagged or the sectors are halved RaySet::kFoldHalvings times. So are
     /// sectors whose chords are too long for the thinnest slab beside their plane (contour.h,
     /// longChords), up to RaySet::kFoldDepth times: no tiling of such a band keeps its triangles
-    /// under kLargestAspect. A sector's
-    /// flag depends on its two rays alone, so the rays added at level L are added again at L+1:
-    /// levels still nest, and a refined level equals the level built from scratch. The top level
-    /// also halves sectors whose edges cut corners (contour.h, strayingChords), up to
-    /// RaySet::kFoldDepth times; no level is built from it, so nesting holds.
+    /// under kLargestAspect. A sector's flag depends on its two rays alone, so the rays added at
+    /// level L are added again at L+1: levels still nest, and a refined level equals the level
+    /// built from scratch. The top level also halves sectors whose edges cut corners (contour.h,
+    /// strayingChords), up to RaySet::kFoldDepth times; no level is built from it, so nesting
+    /// holds.
     void addFoldRays(Contours& contours, int level) const;
     // Per plane of mPositions: the distance to the nearest other plane (index units, as pixels).
     std::vector<double> thinnestSlabs() const;
