@@ -105,6 +105,95 @@ std::vector<std::vector<int>> rankAgainstNeighbour(const Contour& contour, const
     return rank;
 }
 
+// Pixels a band's contours may change shape by before its slab is halved (correspond()).
+constexpr double kShapeChange = 3.0;
+// Pixels the isosurface may lie from a band's straight triangles, between its planes, before the
+// band takes a plane between (splitBand) or its cells (strayingBandPatch). That is the top level's
+// bound, a voxel, with a margin: a distance across the plane overstates the distance to a surface
+// that leans toward the plane, which is where loops change the most (at 1 pixel, 2.4 times the
+// planes on the smoke's crops brought no run more within a voxel of the isosurface).
+constexpr double kBandStray = 1.5;
+
+// How far the middle plane's loop lies from where the band's straight triangles put it, in pixels:
+// the loops' radial profiles (each from its own central point) give, per direction, the middle
+// loop's nearest and farthest crossings and the band's, the means of the lower and upper loops'.
+// Each point of either set is as far as the nearest point of the other within a sixteenth of a
+// turn either way, so that a shift across an oblique boundary counts its distance, not its length
+// along a ray.
+double strayFromBand(const PlaneLoops& lower, int a, const PlaneLoops& middle, int m, const PlaneLoops& upper, int b)
+{
+    const RadialProfile& p = *lower.profiles[a];
+    const RadialProfile& q = *middle.profiles[m];
+    const RadialProfile& r = *upper.profiles[b];
+    const glm::dvec2 predicted = 0.5 * (lower.centers[a] + upper.centers[b]);
+    const std::size_t n = std::min({p.nearest.size(), q.nearest.size(), r.nearest.size()});
+    if (n == 0) return 0.0;
+    // Per direction: the band's two points, then the loop's (infinite where a ray misses).
+    std::vector<std::array<glm::dvec2, 4>> points(n);
+    const glm::dvec2 none(std::numeric_limits<double>::infinity());
+    for (std::size_t d = 0; d < n; ++d) {
+        const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(n);
+        const glm::dvec2 direction(std::cos(angle), std::sin(angle));
+        int k = 0;
+        for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
+            const double expected = 0.5 * ((p.*radius)[d] + (r.*radius)[d]), actual = (q.*radius)[d];
+            points[d][k] = std::isfinite(expected) ? predicted + direction * expected : none;
+            points[d][k + 2] = std::isfinite(actual) ? middle.centers[m] + direction * actual : none;
+            ++k;
+        }
+    }
+    const std::size_t window = std::max<std::size_t>(n / 16, 1);
+    double stray = 0.0;
+    for (std::size_t d = 0; d < n; ++d)
+        for (int k = 0; k < 4; ++k) {
+            const glm::dvec2& from = points[d][k];
+            if (!std::isfinite(from.x)) continue;
+            double nearest = std::numeric_limits<double>::infinity();
+            for (std::size_t e = n + d - window; e <= n + d + window; ++e)
+                for (const int other : k < 2 ? std::array<int, 2>{2, 3} : std::array<int, 2>{0, 1}) {
+                    const glm::dvec2& to = points[e % n][other];
+                    if (std::isfinite(to.x)) nearest = std::min(nearest, glm::length(to - from));
+                }
+            if (std::isfinite(nearest)) stray = std::max(stray, nearest);
+        }
+    return stray;
+}
+
+// How far the patch's vertices inside its slab lie from the straight surface of the band between
+// loop a below and loop b above, in pixels: each against the loops' radial profiles interpolated to
+// its own w, within a sixteenth of a turn of its own direction (as strayFromBand).
+double patchStrayFromBand(const SlabPatch& patch, int axis, const PlaneLoops& lower, int a, const PlaneLoops& upper,
+                          int b)
+{
+    const RadialProfile& p = *lower.profiles[a];
+    const RadialProfile& r = *upper.profiles[b];
+    const std::size_t n = std::min(p.nearest.size(), r.nearest.size());
+    if (n == 0) return 0.0;
+    const std::size_t window = std::max<std::size_t>(n / 16, 1);
+    double stray = 0.0;
+    for (const SlabPatch::Vertex& v : patch.vertices) {
+        if (v.plane >= 0) continue;
+        const double t = (v.index[axis] - lower.w) / (upper.w - lower.w);
+        const glm::dvec2 center = (1.0 - t) * lower.centers[a] + t * upper.centers[b];
+        const glm::dvec2 uv(v.index[(axis + 1) % 3], v.index[(axis + 2) % 3]);
+        double angle = std::atan2(uv.y - center.y, uv.x - center.x);
+        if (angle < 0.0) angle += 2.0 * kPi;
+        const std::size_t d = static_cast<std::size_t>(std::lround(angle / (2.0 * kPi) * static_cast<double>(n))) % n;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (std::size_t e = n + d - window; e <= n + d + window; ++e) {
+            const double theta = 2.0 * kPi * static_cast<double>(e % n) / static_cast<double>(n);
+            const glm::dvec2 direction(std::cos(theta), std::sin(theta));
+            for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
+                const double expected = (1.0 - t) * (p.*radius)[e % n] + t * (r.*radius)[e % n];
+                if (std::isfinite(expected))
+                    nearest = std::min(nearest, glm::length(center + direction * expected - uv));
+            }
+        }
+        if (std::isfinite(nearest)) stray = std::max(stray, nearest);
+    }
+    return stray;
+}
+
 // End contours sit a quarter voxel inside where the object ends (addEndContour).
 constexpr double kEndInset = 0.25;
 
@@ -401,7 +490,6 @@ void Reconstruction::correspond()
     // (the hollow Y's crescents: 1.07 voxels off when halving stopped at half a voxel). Tubes
     // that lean and turn (the helix: ellipses turning by up to 3 pixels between slices) follow
     // their chords and get none.
-    constexpr double kShapeChange = 3.0;
     std::vector<PlaneLoops> planes;
     for (std::size_t s = 0; s < mLoops.size(); ++s) planes.push_back(planeLoops(static_cast<int>(s)));
     std::vector<SliceCounts> dropped; // per added plane
@@ -519,6 +607,11 @@ void Reconstruction::resolveEvents()
                 continue;
             }
             if (piece.kind == EventKind::Band) {
+                if (std::optional<SlabPatch> cells = strayingBandPatch(slab, piece)) {
+                    ++mStats.bandPatches;
+                    joinPatch(slab, piece, std::move(*cells));
+                    continue;
+                }
                 const int t = tubeOf[slab.below][piece.below[0]];
                 std::vector<int> steps;
                 splitBand(slab.below, piece.below[0], slab.above, piece.above[0], middle, steps);
@@ -665,54 +758,24 @@ bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiec
     return splitJunction(junction);
 }
 
-namespace {
-
-// How far the middle plane's loop lies from where the band's straight triangles put it, in pixels:
-// the loops' radial profiles (each from its own central point) give, per direction, the middle
-// loop's nearest and farthest crossings and the band's, the means of the lower and upper loops'.
-// Each point of either set is as far as the nearest point of the other within a sixteenth of a
-// turn either way, so that a shift across an oblique boundary counts its distance, not its length
-// along a ray.
-double strayFromBand(const PlaneLoops& lower, int a, const PlaneLoops& middle, int m, const PlaneLoops& upper, int b)
+std::optional<SlabPatch> Reconstruction::strayingBandPatch(const ContourGraph::Slab& slab, const SlabPiece& piece) const
 {
-    const RadialProfile& p = *lower.profiles[a];
-    const RadialProfile& q = *middle.profiles[m];
-    const RadialProfile& r = *upper.profiles[b];
-    const glm::dvec2 predicted = 0.5 * (lower.centers[a] + upper.centers[b]);
-    const std::size_t n = std::min({p.nearest.size(), q.nearest.size(), r.nearest.size()});
-    if (n == 0) return 0.0;
-    // Per direction: the band's two points, then the loop's (infinite where a ray misses).
-    std::vector<std::array<glm::dvec2, 4>> points(n);
-    const glm::dvec2 none(std::numeric_limits<double>::infinity());
-    for (std::size_t d = 0; d < n; ++d) {
-        const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(n);
-        const glm::dvec2 direction(std::cos(angle), std::sin(angle));
-        int k = 0;
-        for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
-            const double expected = 0.5 * ((p.*radius)[d] + (r.*radius)[d]), actual = (q.*radius)[d];
-            points[d][k] = std::isfinite(expected) ? predicted + direction * expected : none;
-            points[d][k + 2] = std::isfinite(actual) ? middle.centers[m] + direction * actual : none;
-            ++k;
-        }
-    }
-    const std::size_t window = std::max<std::size_t>(n / 16, 1);
-    double stray = 0.0;
-    for (std::size_t d = 0; d < n; ++d)
-        for (int k = 0; k < 4; ++k) {
-            const glm::dvec2& from = points[d][k];
-            if (!std::isfinite(from.x)) continue;
-            double nearest = std::numeric_limits<double>::infinity();
-            for (std::size_t e = n + d - window; e <= n + d + window; ++e)
-                for (const int other : k < 2 ? std::array<int, 2>{2, 3} : std::array<int, 2>{0, 1}) {
-                    const glm::dvec2& to = points[e % n][other];
-                    if (std::isfinite(to.x)) nearest = std::min(nearest, glm::length(to - from));
-                }
-            if (std::isfinite(nearest)) stray = std::max(stray, nearest);
-        }
-    return stray;
+    // A band whose slab the graph could not halve down to what its shape change asks (a plane
+    // between showed other pieces elsewhere in the slab: graph.h) can fan a contour's arm that
+    // ends inside the slab across the air beside it (the smoke at iso 0.1: a kidney-shaped section
+    // a voxel below a blob, fanned from the blob across 13 voxels, 2.23 voxels off at the top
+    // level). Where its cells close as an annulus and lie farther than kBandStray from the band's
+    // straight triangles, they mesh it instead, at every level.
+    if (mPositions[slab.above] - mPositions[slab.below] <= kEventThickness / 4.0) return std::nullopt;
+    const PlaneLoops lower = planeLoops(slab.below), upper = planeLoops(slab.above);
+    const int a = piece.below[0], b = piece.above[0];
+    if (shapeChange(lower, a, upper, b) <= kShapeChange) return std::nullopt;
+    std::optional<SlabPatch> patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+    if (!patch || patch->euler != piece.euler() ||
+        patchStrayFromBand(*patch, mPlan.axis, lower, a, upper, b) <= kBandStray)
+        return std::nullopt;
+    return patch;
 }
-
-} // namespace
 
 void Reconstruction::splitBand(int below, int lowerLoop, int above, int upperLoop, BandMiddle& middle,
                                std::vector<int>& steps)
@@ -723,11 +786,7 @@ void Reconstruction::splitBand(int below, int lowerLoop, int above, int upperLoo
     // the planes: a crop of Gaffer's smoke has a ledge in one voxel plane between two slices, 2.7
     // voxels past the band. The band alone takes the middle plane's loop where that loop joins it
     // one to one through either half and lies farther from the band's straight triangles than
-    // kBandStray pixels. That is the top level's bound, a voxel, with a margin: a distance across
-    // the plane overstates the distance to a surface that leans toward the plane, which is where
-    // loops change the most (at 1 pixel, 2.4 times the planes on the smoke's crops brought no run
-    // more within a voxel of the isosurface).
-    constexpr double kBandStray = 1.5;
+    // kBandStray pixels.
     if (mPositions[above] - mPositions[below] <= kEventThickness / 4.0) return;
     const PlaneLoops lower = planeLoops(below), upper = planeLoops(above);
     if (!middle.traced) {

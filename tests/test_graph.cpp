@@ -722,6 +722,19 @@ TEST(Graph, TheSmokesTopLevelIsWithinAVoxel)
     EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
 }
 
+// The smoke along z was 1.09 voxels off at the top level, where a band's slab could not be halved;
+// such bands take their cells (ABandWhoseSlabCouldNotBeHalvedTakesItsCells), and it is within a
+// voxel (0.92).
+TEST(Graph, TheSmokeAlongZIsWithinAVoxel)
+{
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    const Validation v = Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+}
+
 namespace {
 
 // The top level of `volume`'s mesh along `axis` is closed, manifold and oriented, and encloses the
@@ -1039,6 +1052,33 @@ Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
 }
 
 } // namespace
+
+// The smoke at iso 0.1 along y (a crop of its y range 176 to 200 shows the same): between y = 187 and 188 a kidney-shaped section becomes a blob, its
+// left arm ending inside the slab. No plane between agrees with the slab's 19 pieces as a whole,
+// so the slab stays whole, and the band fanned from the blob's lowest point across 13 voxels of
+// air: its top level's triangles there lay 2.23 voxels off. Its cells close as an annulus and
+// stray from the band's straight triangles, so they mesh it, and those triangles lie within a
+// voxel of the isosurface.
+TEST(Graph, ABandWhoseSlabCouldNotBeHalvedTakesItsCells)
+{
+    const Volume volume = smokeCrop({1, 176, 1}, {111, 200, 112}, 0.1); // its y range
+    MeshOptions options;
+    options.slicing.axis = Axis::Y;
+    const Reconstruction reconstruction(volume, options);
+    ASSERT_GT(reconstruction.stats().bandPatches, 0);
+    const TriangleMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
+    TriangleMesh slab;
+    slab.vertices = top.vertices;
+    for (const Triangle& t : top.triangles)
+        if (std::all_of(t.begin(), t.end(), [&](std::uint32_t v) {
+                const double y = volume.worldToIndex(top.vertices[v]).y;
+                return y >= 187.0 && y <= 188.0;
+            }))
+            slab.triangles.push_back(t);
+    ASSERT_FALSE(slab.triangles.empty());
+    const Validation v = Validator(volume).validate(slab);
+    EXPECT_LE(v.meshToReference.max / v.voxel, 1.0);
+}
 
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a

@@ -127,6 +127,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"unresolved_junctions", stats.unresolvedJunctions},
           {"planes_added", stats.addedPlanes},
           {"band_planes", stats.bandPlanes},
+          {"band_patches", stats.bandPatches},
           {"cell_matches", stats.cellMatches},
           {"euler", stats.eventEuler},
           {"built_euler", stats.caps - stats.saddles + stats.patchEuler},

@@ -95,6 +95,8 @@ struct ReconstructionStats {
     int addedPlanes = 0;           // planes added between slices where an event lies (bisection)
     int bandPlanes = 0;            // planes added inside a band alone, where the middle plane's loop
                                    // strays from the band (splitBand)
+    int bandPatches = 0;           // bands meshed from their slab's cells, which stray from them
+                                   // where the slab could not be halved (strayingBandPatch)
     int cellMatches = 0;           // ranges between voxel planes cut again where the cells' Euler
                                    // characteristic showed a handle (graph.h)
     int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
@@ -261,6 +263,9 @@ private:
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
+    /// The patch of a band piece whose slab stayed thicker than its shape change asks, where its
+    /// cells close as an annulus and stray from the band's straight triangles; none otherwise.
+    std::optional<SlabPatch> strayingBandPatch(const ContourGraph::Slab& slab, const SlabPiece& piece) const;
     /// Planes for the band from loop `lowerLoop` of plane `below` to `upperLoop` of `above` alone,
     /// down to a quarter of the events' thickness: the middle plane's loop, where it joins the two
     /// one to one through either half and strays from the band's straight triangles, each added
