@@ -1377,7 +1377,7 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
             crossesPolygon(w1, h1, hole))
             continue;
         bestBlocked = stretch;
-        keyhole = {slit.wall, slit.hole, walls, holes};
+        keyhole = {slit.wall, slit.hole, walls, holes, stretch};
     }
     return keyhole.open();
 }

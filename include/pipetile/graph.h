@@ -210,6 +210,7 @@ bool splitIntoArcs(const std::vector<glm::dvec2>& single, const std::vector<glm:
 struct Keyhole {
     int wall = -1, hole = -1;
     int wallSize = 0, holeSize = 0;
+    double blocked = 0.0; // pixels of the slit's middle line where the partners' plane is inside
     bool open() const { return wall >= 0; }
     /// Point q of the composite as (0, wall point) or (1, hole point).
     std::pair<int, int> at(int q) const;

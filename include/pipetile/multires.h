@@ -263,8 +263,9 @@ private:
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
-    /// The patch of a band piece whose slab stayed thicker than its shape change asks, where its
-    /// cells close as an annulus and stray from the band's straight triangles; none otherwise.
+    /// The patch of a band piece whose slab stayed thicker than the events' thickness though its
+    /// shape change asks for less, where its cells close as an annulus and stray from the band's
+    /// straight triangles; none otherwise.
     std::optional<SlabPatch> strayingBandPatch(const ContourGraph::Slab& slab, const SlabPiece& piece) const;
     /// Planes for the band from loop `lowerLoop` of plane `below` to `upperLoop` of `above` alone,
     /// down to a quarter of the events' thickness: the middle plane's loop, where it joins the two
