@@ -2267,7 +2267,7 @@ private:
     std::vector<ChordVertices> onChord;                // per junction
     std::vector<std::uint32_t> firstNodeOf;            // per junction
     std::vector<std::vector<std::uint32_t>> partFirst; // per junction, per partner
-    std::vector<std::uint32_t> patchFirst;             // per patch
+    std::vector<std::vector<std::uint32_t>> patchIds;  // per patch, per vertex
     std::vector<std::unique_ptr<ContourTree>> trees;   // per member, with the contour tree tiler
     std::vector<ContourString> strings;                // per member, likewise
     std::vector<std::size_t> bandBytes;                // per member
@@ -2292,7 +2292,7 @@ Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& cont
       onChord(r.mJunctions.size()),
       firstNodeOf(r.mJunctions.size()),
       partFirst(r.mJunctions.size()),
-      patchFirst(r.mPatches.size())
+      patchIds(r.mPatches.size())
 {
     result.level = level;
     result.rays = rays.count();
@@ -2374,21 +2374,27 @@ void Reconstruction::Assembly::numberJunctionVertices()
         }
     }
     // A patch's points on a loop lie on its polygon's points (param 0 of their segment; a hole's
-    // polygon runs reversed).
+    // polygon runs reversed). Two patches that meet at a loop (one either side of its plane) share
+    // its points: as copies, the patches' edges on the loop were split through each other's copy
+    // too, into triangles of no area, and a collapse guarded by the worst aspect ratio it takes
+    // away could then make any needle (the smoke at iso 0.1: 69 486 at the top level).
+    std::map<std::array<int, 3>, std::uint32_t> onLoop; // (plane, loop, point): its vertex
     for (std::size_t p = 0; p < mPatches.size(); ++p) {
-        patchFirst[p] = vertexCount;
         const std::vector<SlabPatch::Vertex>& vertices = mPatches[p].surface.vertices;
-        for (std::size_t v = 0; v < vertices.size(); ++v) {
-            if (vertices[v].plane < 0) continue;
-            const std::pair<int, int> loop{vertices[v].plane == 0 ? mPatches[p].below : mPatches[p].above,
-                                           vertices[v].loop};
+        for (const SlabPatch::Vertex& vertex : vertices) {
+            if (vertex.plane < 0) {
+                patchIds[p].push_back(vertexCount++);
+                continue;
+            }
+            const std::pair<int, int> loop{vertex.plane == 0 ? mPatches[p].below : mPatches[p].above, vertex.loop};
+            const auto [at, added] = onLoop.insert({{loop.first, loop.second, vertex.point}, vertexCount});
+            patchIds[p].push_back(at->second);
+            if (!added) continue;
             const BoundaryLoop& boundary = mLoops[loop.first][loop.second].loop;
             const int n = static_cast<int>(boundary.points.size());
-            const int segment = boundary.hole() ? n - 1 - vertices[v].point : vertices[v].point;
-            extras[memberAt(loop)].push_back(
-                {segment, 0.0, vertexCount + static_cast<std::uint32_t>(v), boundary.points[vertices[v].point]});
+            const int segment = boundary.hole() ? n - 1 - vertex.point : vertex.point;
+            extras[memberAt(loop)].push_back({segment, 0.0, vertexCount++, boundary.points[vertex.point]});
         }
-        vertexCount += static_cast<std::uint32_t>(vertices.size());
     }
 }
 
@@ -2449,9 +2455,9 @@ void Reconstruction::Assembly::placeVertices()
         for (std::size_t v = 0; v < mPatches[p].surface.vertices.size(); ++v) {
             const SlabPatch::Vertex& vertex = mPatches[p].surface.vertices[v];
             const int plane = vertex.plane == 0 ? mPatches[p].below : mPatches[p].above;
-            mesh.vertices[patchFirst[p] + v] =
-                vertex.plane < 0 ? mVolume.indexToWorld(vertex.index)
-                                 : toWorld(mLoops[plane][vertex.loop].loop.points[vertex.point], plane);
+            mesh.vertices[patchIds[p][v]] = vertex.plane < 0
+                                                ? mVolume.indexToWorld(vertex.index)
+                                                : toWorld(mLoops[plane][vertex.loop].loop.points[vertex.point], plane);
         }
 }
 
@@ -2781,26 +2787,26 @@ void Reconstruction::Assembly::tileJunction(std::size_t j)
 void Reconstruction::Assembly::tilePatch(std::size_t p)
 {
     const Patch& patch = mPatches[p];
-    const std::uint32_t first = patchFirst[p];
+    const std::vector<std::uint32_t>& id = patchIds[p];
     std::vector<Triangle> triangles;
     triangles.reserve(patch.surface.triangles.size());
     for (const auto& t : patch.surface.triangles) {
-        triangles.push_back({first + t[0], first + t[1], first + t[2]});
+        triangles.push_back({id[t[0]], id[t[1]], id[t[2]]});
         if (mirrored) std::swap(triangles.back()[1], triangles.back()[2]);
     }
-    // Per loop, its patch points in ring order: consecutive ones are an edge of the patch.
+    // Per loop, its patch points (sorted, to be found in the ring: in ring order, consecutive ones
+    // are an edge of the patch).
     std::map<std::pair<int, int>, std::vector<std::uint32_t>> pointsOn;
     for (std::size_t v = 0; v < patch.surface.vertices.size(); ++v) {
         const SlabPatch::Vertex& vertex = patch.surface.vertices[v];
-        if (vertex.plane >= 0)
-            pointsOn[{vertex.plane == 0 ? patch.below : patch.above, vertex.loop}].push_back(
-                first + static_cast<std::uint32_t>(v));
+        if (vertex.plane >= 0) pointsOn[{vertex.plane == 0 ? patch.below : patch.above, vertex.loop}].push_back(id[v]);
     }
-    for (const auto& [loop, ids] : pointsOn) {
+    for (auto& [loop, ids] : pointsOn) {
         const Ring ring = ringOf(memberAt(loop));
+        std::sort(ids.begin(), ids.end());
         std::vector<std::size_t> at; // ring positions of the patch's points
         for (std::size_t r = 0; r < ring.ids.size(); ++r)
-            if (ring.ids[r] >= first && ring.ids[r] < first + patch.surface.vertices.size()) at.push_back(r);
+            if (std::binary_search(ids.begin(), ids.end(), ring.ids[r])) at.push_back(r);
         PIPETILE_ASSERT(at.size() == ids.size(), "a patch's point is missing from its loop's ring");
         for (std::size_t k = 0; k < at.size(); ++k) {
             const std::size_t from = at[k], to = at[(k + 1) % at.size()];

@@ -230,10 +230,12 @@ private:
     std::deque<std::pair<std::uint32_t, std::uint32_t>> mQueue;    // edges to look at, in order: deterministic
 };
 
-// Union-find over vertex ids, each set named by its lowest id.
-std::uint32_t rootOf(std::vector<std::uint32_t>& parent, std::uint32_t v)
+// The vertex that v's collapses put it into. No path compression: a collapse always goes into a
+// root, so paths stay a few steps long, and a speck's collapse tried and undone (collapsePairs)
+// leaves no shortcut through the corner it put back.
+std::uint32_t rootOf(const std::vector<std::uint32_t>& parent, std::uint32_t v)
 {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    while (parent[v] != v) v = parent[v];
     return v;
 }
 
@@ -281,27 +283,32 @@ double collapseMove(const glm::dvec3& a, const glm::dvec3& b, const std::vector<
     return move;
 }
 
-// Whether moving corner b of the triangles `around` it to a (those on edge a-b go) turns none of
-// them over, which would fold the surface, and passes `guard`.
+// Whether moving the corners `goes` of the triangles `around` them to a (a triangle that would
+// then hold a twice goes) turns none of them over, which would fold the surface, and passes
+// `guard`. Several corners move together within the guard's reach only.
 bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>& around, const std::vector<bool>& gone,
-                      std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, const Guard& guard)
+                      const std::vector<std::uint32_t>& parent, std::uint32_t a, const std::vector<std::uint32_t>& goes,
+                      const Guard& guard)
 {
     const std::vector<glm::dvec3>& p = mesh.vertices;
+    const std::uint32_t b = goes.front();
     // An edge within the reach moves the surface by its length at most; past it, by as much only
     // where collapseMove says so. Along a nearly straight contour that is far below the length.
     const bool far = glm::dot(p[a] - p[b], p[a] - p[b]) > guard.reach * guard.reach;
+    if (far && goes.size() > 1) return false;
+    const auto moves = [&](std::uint32_t w) { return std::find(goes.begin(), goes.end(), w) != goes.end(); };
     std::vector<Corners> before, after;
     double worstBefore = 0.0, worstAfter = 0.0;
     for (const std::uint32_t f : around) {
         if (gone[f]) continue;
         Triangle t = mesh.triangles[f];
         for (std::uint32_t& w : t) w = rootOf(parent, w);
-        if (!holds(t, b)) continue;
+        if (!std::any_of(t.begin(), t.end(), moves)) continue;
         worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
         if (far) before.push_back({p[t[0]], p[t[1]], p[t[2]]});
-        if (holds(t, a)) continue;
         const glm::dvec3 normal = faceNormal(mesh, t);
-        for (std::uint32_t& w : t) w = w == b ? a : w;
+        for (std::uint32_t& w : t) w = moves(w) ? a : w;
+        if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
         // A triangle of no area has no side to turn over (three copies of one point: the twisting
         // C's junctions leave 198 such triangles on each level unless they go).
         if (normal != glm::dvec3(0.0) && !(glm::dot(faceNormal(mesh, t), normal) > 0.0)) return false;
@@ -316,12 +323,19 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
     return !far || collapseMove(p[a], p[b], before, after) <= guard.reach;
 }
 
+constexpr std::uint32_t kNoVertex = std::numeric_limits<std::uint32_t>::max();
+
 // One edge collapse to try: `go` into (the vertex that now stands for) `keep`; with `eitherWay`
 // (neither end is a vertex of the coarser level), `keep` into `go` where that one cannot be made.
+// With `also`, a speck's third corner goes into `keep` too, in the same step.
 struct Collapse {
     std::uint32_t keep, go;
     bool eitherWay;
-    bool operator==(const Collapse& o) const { return keep == o.keep && go == o.go && eitherWay == o.eitherWay; }
+    std::uint32_t also = kNoVertex;
+    bool operator==(const Collapse& o) const
+    {
+        return keep == o.keep && go == o.go && eitherWay == o.eitherWay && also == o.also;
+    }
 };
 
 // The triangles around some of a mesh's vertices, by vertex id: a slot per vertex, so that
@@ -356,7 +370,8 @@ private:
 // neighbours a and b share are exactly the third corners of those two; otherwise the collapse
 // would pinch the surface). Fills `on` with the two triangles.
 bool linkAllows(const TriangleMesh& mesh, VertexFans& around, const std::vector<bool>& gone,
-                std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b, std::vector<std::uint32_t>& on)
+                const std::vector<std::uint32_t>& parent, std::uint32_t a, std::uint32_t b,
+                std::vector<std::uint32_t>& on)
 {
     std::vector<std::uint32_t> nearA, nearB, opposite;
     on.clear();
@@ -389,27 +404,59 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
 
     // The triangles around the pairs' vertices; a collapse moves the gone end's into the kept one's.
     VertexFans around(p.size());
-    for (const Collapse& c : pairs) around[c.keep], around[c.go];
+    for (const Collapse& c : pairs) {
+        around[c.keep], around[c.go];
+        if (c.also != kNoVertex) around[c.also];
+    }
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
         for (const std::uint32_t v : mesh.triangles[f]) around.offer(v, f);
     std::vector<std::uint32_t> parent(p.size());
     for (std::uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
     std::vector<bool> gone(mesh.triangles.size(), false);
     std::vector<std::uint32_t> on;
-    const auto tryCollapse = [&](std::uint32_t a, std::uint32_t b) {
-        if (a == b || parent[b] != b || !linkAllows(mesh, around, gone, parent, a, b, on) ||
-            !collapseImproves(mesh, around[b], gone, parent, a, b, guard))
-            return false;
+    const auto apply = [&](std::uint32_t a, std::uint32_t b) {
         for (const std::uint32_t f : on) gone[f] = true;
         parent[b] = a;
         std::vector<std::uint32_t>& into = around[a];
         const std::vector<std::uint32_t>& from = around[b];
         into.insert(into.end(), from.begin(), from.end());
+    };
+    const auto tryCollapse = [&](std::uint32_t a, std::uint32_t b) {
+        if (a == b || parent[b] != b || !linkAllows(mesh, around, gone, parent, a, b, on) ||
+            !collapseImproves(mesh, around[b], gone, parent, a, {b}, guard))
+            return false;
+        apply(a, b);
         return true;
+    };
+    // A speck's two corners b and c into a at once: one at a time, the first can make a needle
+    // that only the second takes away (three points a few ten-thousandths of a voxel apart where
+    // the isosurface passes a voxel's corner, each fanned to the vertices around).
+    const auto trySpeck = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+        if (a == b || a == c || b == c || parent[b] != b || parent[c] != c) return false;
+        std::vector<std::uint32_t> both = around[b];
+        both.insert(both.end(), around[c].begin(), around[c].end());
+        if (!collapseImproves(mesh, both, gone, parent, a, {b, c}, guard) ||
+            !linkAllows(mesh, around, gone, parent, a, b, on))
+            return false;
+        const std::vector<std::uint32_t> first = on;
+        const std::size_t had = around[a].size();
+        apply(a, b);
+        if (linkAllows(mesh, around, gone, parent, a, c, on)) {
+            apply(a, c);
+            return true;
+        }
+        for (const std::uint32_t f : first) gone[f] = false;
+        parent[b] = b;
+        around[a].resize(had);
+        return false;
     };
     long long collapsed = 0;
     for (const Collapse& c : pairs) {
         const std::uint32_t a = rootOf(parent, c.keep);
+        if (c.also != kNoVertex) {
+            if (a == c.keep && trySpeck(a, c.go, c.also)) collapsed += 2;
+            continue;
+        }
         // The other way round, where the first fails: a needle's short edge whose preferred end
         // cannot go (it would turn a triangle over, or raise the worst aspect around, as on the
         // gaffer smoke's 266 at level 0 that the other way lowers to 46) may still go the other.
@@ -531,10 +578,23 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                 const bool eitherWay = !keepA && !keepB;
                 pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay} : Collapse{b, a, eitherWay});
             }
+            if (speck) {
+                // Kept: the corner the coarser level has, else the first by position.
+                std::array<std::uint32_t, 3> corners = t;
+                std::sort(corners.begin(), corners.end(), [&](std::uint32_t x, std::uint32_t y) {
+                    const bool keepX = copies(p[x]) > 0, keepY = copies(p[y]) > 0;
+                    return keepX != keepY ? keepX : before(p[x], p[y]) || (p[x] == p[y] && x < y);
+                });
+                if (copies(p[corners[1]]) == 0) pairs.push_back({corners[0], corners[1], false, corners[2]});
+            }
         }
         // By position, not id: the same collapses whichever way the level was built.
-        std::sort(pairs.begin(), pairs.end(), [&](const auto& x, const auto& y) {
-            return p[x.go] != p[y.go] ? before(p[x.go], p[y.go]) : before(p[x.keep], p[y.keep]);
+        // A speck's collapse after its edges'.
+        std::sort(pairs.begin(), pairs.end(), [&](const Collapse& x, const Collapse& y) {
+            if (p[x.go] != p[y.go]) return before(p[x.go], p[y.go]);
+            if (p[x.keep] != p[y.keep]) return before(p[x.keep], p[y.keep]);
+            if ((x.also != kNoVertex) != (y.also != kNoVertex)) return y.also != kNoVertex;
+            return x.also != kNoVertex && before(p[x.also], p[y.also]);
         });
         pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
         round = collapsePairs(mesh, pairs, Guard{lowerWorst, tolerance});
