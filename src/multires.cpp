@@ -118,6 +118,27 @@ constexpr double kShapeChange = 3.0;
 // planes on the smoke's crops brought no run more within a voxel of the isosurface).
 constexpr double kBandStray = 1.5;
 
+// The band's straight surface between loop a below and loop b above, at fraction t of the way up,
+// in direction d of the profiles' n: its points at the nearest and the farthest radius, the loops'
+// radial profiles and central points interpolated (infinite where a ray misses either loop).
+std::array<glm::dvec2, 2> bandPoints(const PlaneLoops& lower, int a, const PlaneLoops& upper, int b, std::size_t d,
+                                     std::size_t n, double t)
+{
+    const RadialProfile& p = *lower.profiles[a];
+    const RadialProfile& r = *upper.profiles[b];
+    const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(n);
+    const glm::dvec2 direction(std::cos(angle), std::sin(angle));
+    const glm::dvec2 center = (1.0 - t) * lower.centers[a] + t * upper.centers[b];
+    std::array<glm::dvec2, 2> points;
+    int k = 0;
+    for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
+        const double expected = (1.0 - t) * (p.*radius)[d] + t * (r.*radius)[d];
+        points[k++] = std::isfinite(expected) ? center + direction * expected
+                                              : glm::dvec2(std::numeric_limits<double>::infinity());
+    }
+    return points;
+}
+
 // How far the middle plane's loop lies from where the band's straight triangles put it, in pixels:
 // the loops' radial profiles (each from its own central point) give, per direction, the middle
 // loop's nearest and farthest crossings and the band's, the means of the lower and upper loops'.
@@ -126,24 +147,23 @@ constexpr double kBandStray = 1.5;
 // along a ray.
 double strayFromBand(const PlaneLoops& lower, int a, const PlaneLoops& middle, int m, const PlaneLoops& upper, int b)
 {
-    const RadialProfile& p = *lower.profiles[a];
     const RadialProfile& q = *middle.profiles[m];
-    const RadialProfile& r = *upper.profiles[b];
-    const glm::dvec2 predicted = 0.5 * (lower.centers[a] + upper.centers[b]);
-    const std::size_t n = std::min({p.nearest.size(), q.nearest.size(), r.nearest.size()});
+    const std::size_t n =
+        std::min({lower.profiles[a]->nearest.size(), q.nearest.size(), upper.profiles[b]->nearest.size()});
     if (n == 0) return 0.0;
-    // Per direction: the band's two points, then the loop's (infinite where a ray misses).
+    // Per direction: the band's two points halfway up, then the loop's (infinite where a ray misses).
     std::vector<std::array<glm::dvec2, 4>> points(n);
     const glm::dvec2 none(std::numeric_limits<double>::infinity());
     for (std::size_t d = 0; d < n; ++d) {
+        const std::array<glm::dvec2, 2> band = bandPoints(lower, a, upper, b, d, n, 0.5);
         const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(n);
         const glm::dvec2 direction(std::cos(angle), std::sin(angle));
-        int k = 0;
+        points[d][0] = band[0];
+        points[d][1] = band[1];
+        int k = 2;
         for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
-            const double expected = 0.5 * ((p.*radius)[d] + (r.*radius)[d]), actual = (q.*radius)[d];
-            points[d][k] = std::isfinite(expected) ? predicted + direction * expected : none;
-            points[d][k + 2] = std::isfinite(actual) ? middle.centers[m] + direction * actual : none;
-            ++k;
+            const double actual = (q.*radius)[d];
+            points[d][k++] = std::isfinite(actual) ? middle.centers[m] + direction * actual : none;
         }
     }
     const std::size_t window = std::max<std::size_t>(n / 16, 1);
@@ -169,9 +189,7 @@ double strayFromBand(const PlaneLoops& lower, int a, const PlaneLoops& middle, i
 double patchStrayFromBand(const SlabPatch& patch, int axis, const PlaneLoops& lower, int a, const PlaneLoops& upper,
                           int b)
 {
-    const RadialProfile& p = *lower.profiles[a];
-    const RadialProfile& r = *upper.profiles[b];
-    const std::size_t n = std::min(p.nearest.size(), r.nearest.size());
+    const std::size_t n = std::min(lower.profiles[a]->nearest.size(), upper.profiles[b]->nearest.size());
     if (n == 0) return 0.0;
     const std::size_t window = std::max<std::size_t>(n / 16, 1);
     double stray = 0.0;
@@ -184,15 +202,9 @@ double patchStrayFromBand(const SlabPatch& patch, int axis, const PlaneLoops& lo
         if (angle < 0.0) angle += 2.0 * kPi;
         const std::size_t d = static_cast<std::size_t>(std::lround(angle / (2.0 * kPi) * static_cast<double>(n))) % n;
         double nearest = std::numeric_limits<double>::infinity();
-        for (std::size_t e = n + d - window; e <= n + d + window; ++e) {
-            const double theta = 2.0 * kPi * static_cast<double>(e % n) / static_cast<double>(n);
-            const glm::dvec2 direction(std::cos(theta), std::sin(theta));
-            for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
-                const double expected = (1.0 - t) * (p.*radius)[e % n] + t * (r.*radius)[e % n];
-                if (std::isfinite(expected))
-                    nearest = std::min(nearest, glm::length(center + direction * expected - uv));
-            }
-        }
+        for (std::size_t e = n + d - window; e <= n + d + window; ++e)
+            for (const glm::dvec2& point : bandPoints(lower, a, upper, b, e % n, n, t))
+                if (std::isfinite(point.x)) nearest = std::min(nearest, glm::length(point - uv));
         if (std::isfinite(nearest)) stray = std::max(stray, nearest);
     }
     return stray;
@@ -636,7 +648,11 @@ void Reconstruction::resolveEvents()
             // top level 1.53 voxels off at one), and a fork or merge whose slab stayed thicker than
             // the events' thickness (a plane between voxel planes showed other pieces).
             const bool thick = joins && mPositions[slab.above] - mPositions[slab.below] > kEventThickness;
-            if (thick && !patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+            // The piece's patch, where no pass above took it already.
+            const auto cells = [&] {
+                if (!patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+            };
+            if (thick) cells();
             if ((thick || piece.kind == EventKind::Unresolved) && patch && patch->euler == piece.euler()) {
                 joinPatch(slab, piece, std::move(*patch));
                 continue;
@@ -663,7 +679,7 @@ void Reconstruction::resolveEvents()
                 // ring tree: no slit clear of it, 6 pixels blocked, 1.48 voxels off at the top
                 // level). The piece's cells mesh it instead, where they close.
                 if (junction.keyhole.blocked > kMaxBlocked) {
-                    if (!patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+                    cells();
                     if (patch && patch->euler == piece.euler()) {
                         joinPatch(slab, piece, std::move(*patch));
                         continue;
@@ -674,7 +690,7 @@ void Reconstruction::resolveEvents()
                 for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id;
                 continue;
             }
-            if (joins && !patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+            if (joins) cells();
             if ((joins || piece.kind == EventKind::Unresolved) && patch) {
                 joinPatch(slab, piece, std::move(*patch));
                 continue;
