@@ -130,10 +130,11 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
         lo = glm::min(lo, p);
         hi = glm::max(hi, p);
     }
-    // Cells' centres (between pixels), or every k-th one in a large loop: probes far enough apart
-    // to be cheap, near enough to catch a twisted end's corner (a voxel or two wide). Where none
-    // is in the region, the pixels' own centres: a cell's centre averages four pixels and misses
-    // a speck a pixel wide (three voxels in an L, barely past the isovalue).
+    // Cells' centres (between pixels) and the pixels' own, or every k-th of each in a large loop:
+    // probes far enough apart to be cheap, near enough to catch a twisted end's corner (a voxel or
+    // two wide). Both: a cell's centre averages four pixels and misses a spike a pixel wide (the
+    // smoke along x: a corner pixel reaching a voxel past a blob's end, whose neighbours lie just
+    // below the isovalue), and a pixel's centre misses what reaches past between pixels.
     constexpr double kProbesPerSide = 16.0;
     const double step = std::max(1.0, std::ceil(std::max(hi.x - lo.x, hi.y - lo.y) / kProbesPerSide));
     // Every probe marches; only those whose march went farthest are bisected, as a probe that
@@ -152,7 +153,6 @@ bool farthestReach(const SlicePlane& plane, const BoundaryLoop& loop, double dir
                 leaders.push_back(probe);
             }
         }
-        if (!leaders.empty()) break;
     }
     for (std::size_t i = 0; i < leaders.size(); ++i) {
         const double wProbe = apexBetween(plane, leaders[i], direction, farthest, sign);

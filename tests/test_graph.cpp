@@ -723,12 +723,14 @@ TEST(Graph, AnNmPieceWhoseCellsCloseTakesNoWaist)
 // bay. Bands and parts reaching more than 2 pixels past the other contour's point nearest them
 // (3 before) go to the least-area tiler, whose ties the spans break, and the top level is within
 // a voxel of the isosurface (0.78). Along z it was 1.09 voxels off where a band's slab could not be
-// halved; such bands take their cells (ABandWhoseSlabCouldNotBeHalvedTakesItsCells): 0.92.
+// halved; such bands take their cells (ABandWhoseSlabCouldNotBeHalvedTakesItsCells): 0.92. Along
+// x it was 1.12 voxels off where a corner pixel reaches past an end (AnEndsSpikeOnePixelWideIsReached):
+// 0.73. Along y it is now 0.90: the ends that reach farther take other end contours.
 TEST(Graph, TheSmokesTopLevelIsWithinAVoxel)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
-    for (const Axis axis : {Axis::Y, Axis::Z}) {
-        SCOPED_TRACE(axis == Axis::Y ? "along y" : "along z");
+    for (const Axis axis : {Axis::Y, Axis::Z, Axis::X}) {
+        SCOPED_TRACE(axis == Axis::Y ? "along y" : axis == Axis::Z ? "along z" : "along x");
         MeshOptions options;
         options.slicing.axis = axis;
         const Reconstruction reconstruction(volume, options);
@@ -1348,6 +1350,31 @@ TEST(Graph, AnEndContourPastAnotherKeepsOffOtherObjects)
     options.slicing.axis = Axis::Y;
     const Reconstruction reconstruction(volume, options);
     expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 2.0);
+}
+
+// A bar's end with a spike one pixel wide, a voxel past it and short of the next plane (the smoke
+// along x: a blob's end at x = 35 whose corner pixel reaches x = 36.5, 1.12 voxels off). The
+// spike's neighbours are just below the isovalue, so no cell centre (the average of four pixels)
+// in the end contour lies in the spike: probed from cell centres only, the end was capped a voxel
+// short of it (1.15). farthestReach probes the pixels' own centres too.
+TEST(Graph, AnEndsSpikeOnePixelWideIsReached)
+{
+    test::TempDir dir;
+    const std::string path = dir.path("spike.vdb");
+    test::writeFogVoxelsVdb(path, {14, 14, 20}, [](int x, int y, int z) {
+        if (x >= 3 && x <= 10 && y >= 3 && y <= 10 && z >= 2 && z <= 14) return 1.0f; // the bar
+        if (z != 15) return 0.0f;
+        const int fromSpike = std::abs(x - 4) + std::abs(y - 4);
+        return fromSpike == 0 ? 1.0f : fromSpike == 1 ? 0.45f : 0.0f;
+    });
+    VolumeOptions read;
+    read.iso = 0.5;
+    const Volume volume = readVolume(path, read);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    options.slicing.spacingVoxels = 2.0; // planes at 14 and 16, the spike's tip between them
+    const Reconstruction reconstruction(volume, options);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
 }
 
 // A crop of the smoke at iso 0.1, sliced along y: at y = 153 a contour forks into six partners a

@@ -23,8 +23,8 @@ namespace pipetile {
 bool findApex(const SlicePlane& plane, const glm::dvec2& point, double direction, double reach, double& w,
               double sign = 1.0);
 
-/// How far the region inside `loop` reaches beyond `plane`: findApex from pixel centres in the
-/// loop (at most about 256 of them, evenly spread over its box), and the farthest of the places
+/// How far the region inside `loop` reaches beyond `plane`: findApex from pixel and cell centres
+/// in the loop (at most about 256 of each, evenly spread over its box), and the farthest of the places
 /// they leave the region; false if none does within `reach`. A cap at an end contour leaves out
 /// what lies beyond it, so this says how much a flat or twisted end would lose where the axis
 /// through one central point ends early. Units as findApex's. Throws nothing.
