@@ -163,8 +163,7 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 /// pieces add up to the cells' and join the loops at the range's ends as the range did (a
 /// component of their own between them may come in: a speck the slices missed), and then refined
 /// as above; if they never do, the planes are dropped again and the slabs stay as they
-/// were. A range whose difference the next one undoes (a critical point the two place on either
-/// side of a voxel plane) is left alone. A graph of bands and ends alone is not compared: counting
+/// were. A graph of bands and ends alone is not compared: counting
 /// the cells would cost a single tube most of its time.
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
