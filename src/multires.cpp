@@ -166,21 +166,26 @@ double strayFromBand(const PlaneLoops& lower, int a, const PlaneLoops& middle, i
             points[d][k++] = std::isfinite(actual) ? middle.centers[m] + direction * actual : none;
         }
     }
+    // The largest of the nearest distances, squared. A point's search stops at the first point
+    // within the largest so far, which it cannot raise; searched from its own direction outward,
+    // most points stop at once (a tree's bands took 8% of its time before).
     const std::size_t window = std::max<std::size_t>(n / 16, 1);
-    double stray = 0.0;
+    double stray2 = 0.0;
     for (std::size_t d = 0; d < n; ++d)
         for (int k = 0; k < 4; ++k) {
             const glm::dvec2& from = points[d][k];
             if (!std::isfinite(from.x)) continue;
-            double nearest = std::numeric_limits<double>::infinity();
-            for (std::size_t e = n + d - window; e <= n + d + window; ++e)
+            double nearest2 = std::numeric_limits<double>::infinity();
+            for (std::size_t step = 0; step <= 2 * window && nearest2 > stray2; ++step) {
+                const std::size_t e = (step % 2 == 0 ? n + d + step / 2 : n + d - (step + 1) / 2) % n;
                 for (const int other : k < 2 ? std::array<int, 2>{2, 3} : std::array<int, 2>{0, 1}) {
-                    const glm::dvec2& to = points[e % n][other];
-                    if (std::isfinite(to.x)) nearest = std::min(nearest, glm::length(to - from));
+                    const glm::dvec2 to = points[e][other] - from;
+                    if (std::isfinite(to.x)) nearest2 = std::min(nearest2, glm::dot(to, to));
                 }
-            if (std::isfinite(nearest)) stray = std::max(stray, nearest);
+            }
+            if (std::isfinite(nearest2)) stray2 = std::max(stray2, nearest2);
         }
-    return stray;
+    return std::sqrt(stray2);
 }
 
 // How far the patch's vertices inside its slab lie from the straight surface of the band between
