@@ -45,7 +45,14 @@ bool sameFile(const std::string& a, const std::string& b)
 {
     std::error_code ec;
     if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
-    return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+    // Where either path cannot be made canonical (out of memory, say: both come back empty, and
+    // under an address-space limit every output was taken for the input, an exit 2 where the run
+    // should end in "out of memory"), the paths as written decide.
+    std::error_code ecA, ecB;
+    const std::filesystem::path canonicalA = std::filesystem::weakly_canonical(a, ecA),
+                                canonicalB = std::filesystem::weakly_canonical(b, ecB);
+    if (ecA || ecB) return std::filesystem::path(a).lexically_normal() == std::filesystem::path(b).lexically_normal();
+    return canonicalA == canonicalB;
 }
 
 // Binary STL holds float32 only: far from the origin that moves vertices. Say so beyond 1/100 voxel.
