@@ -1,6 +1,12 @@
-// pipetile — caps: closing where tubes end.
+// pipetile — caps: closing where tubes end. The apex search and ear clipping (caps.h), and the
+// reconstruction's stage that uses them (multires.h, Reconstruction::closeEnds): end contours past
+// a tube's last slice, apexes, rims and annuli.
 
 #include <pipetile/caps.h>
+#include <pipetile/error.h>
+#include <pipetile/multires.h>
+
+#include "reconstruction_state.h"
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
@@ -10,6 +16,8 @@
 #include <cstdint>
 #include <deque>
 #include <limits>
+#include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -213,6 +221,523 @@ std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
     if (ring.size() == 3) triangles.push_back({ring[0], ring[1], ring[2]});
     fattenDiagonals(p, orientation, triangles);
     return triangles;
+}
+
+// The closeEnds stage of the reconstruction: what the graph leaves open at tube ends.
+
+namespace {
+
+// End contours sit a quarter voxel inside where the object ends (addEndContour).
+constexpr double kEndInset = 0.25;
+
+// Pixels apart, on average, that a band to an end contour may pair points (misregistration): the
+// bands' own bound on shape change (correspond).
+constexpr double kOutOfRegister = 3.0;
+
+// A bound on end contours per end, against a region that somehow never ends (each adds at most a
+// slice spacing; a twisted flat end needs one, a long oblique one two).
+constexpr int kMostEndContours = 8;
+
+// The graph ends a tube inside the slab up to the next plane: what the axis meets more than half a
+// voxel past that plane is another piece's region (the labelling parts them where the field along
+// one line does not), and end contours that followed it stacked 8 deep inside the smoke's blob.
+// The half voxel lets an apex touch the next plane, or a flat end lie in it (with less, 16 of the
+// phantoms' meshes changed).
+constexpr double kPastNextPlane = 0.5;
+
+// How far past a tube's last contour its end is sought: a slice spacing and two voxels.
+double endReach(const MeshOptions& options)
+{
+    return options.slicing.spacingVoxels + 2.0;
+}
+
+// Index in [0, count) of the candidate that `accept` takes whose point is nearest `target` (the
+// first of equals); -1 if it takes none.
+template <class PointOf, class Accept>
+int nearest(int count, const glm::dvec2& target, const PointOf& pointOf, const Accept& accept)
+{
+    int best = -1;
+    double bestDistance2 = 0.0;
+    for (int k = 0; k < count; ++k) {
+        if (!accept(k)) continue;
+        const glm::dvec2 d = pointOf(k) - target;
+        const double distance2 = d.x * d.x + d.y * d.y;
+        if (best < 0 || distance2 < bestDistance2) {
+            best = k;
+            bestDistance2 = distance2;
+        }
+    }
+    return best;
+}
+
+} // namespace
+
+std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int l, bool hole, double w,
+                                                                      const std::pair<int, int>& onGraph)
+{
+    const SliceLoop& member = mLoops[s][l];
+    std::vector<BoundaryLoop> loops = traceBoundaries(SlicePlane(mVolume, mPlan, w));
+    // A loop that overlaps the member may be another object's, which the slab keeps apart from it
+    // (the smoke: a speck of one voxel, capped, took the 168-pixel loop of the web around it half
+    // a voxel on as its end contour, and its band fanned that whole loop to the speck, 2.5 voxels
+    // inside the solid).
+    const int best = nearest(
+        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
+        [&](int k) {
+            const BoundaryLoop& candidate = loops[k];
+            return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
+                   (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
+                    overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
+                   !sharedWithOthers(onGraph.first, onGraph.second, candidate);
+        });
+    if (best < 0) return std::nullopt;
+    // Its own central point, from which the apex is highest on a rounded end; but where
+    // the band from the last contour to it would pair points more than 3 pixels apart on
+    // average (as bands may change shape, correspond), the point that follows the last
+    // contour's as along the tube (followCentres), if that pairs them closer: a C's own
+    // point can lie elsewhere in it (the twisting C's end band turned a quarter turn, 13.9
+    // pixels out of register and 6.2 voxels off the surface).
+    SliceLoop endLoop{std::move(loops[best]), {}, {}};
+    const glm::dvec2 center = centralPoint(endLoop.loop);
+    endLoop.view = viewFrom(endLoop.loop, center);
+    endLoop.profile = radialProfile(endLoop.view, profileDirections());
+    const double own = endLoop.view.winding == 1
+                           ? misregistration(member.view, member.profile, endLoop.view, endLoop.profile)
+                           : std::numeric_limits<double>::infinity();
+    const glm::dvec2 followed = followedCentre(member, endLoop);
+    if (own > kOutOfRegister && followed != center) {
+        LoopView view = viewFrom(endLoop.loop, followed);
+        RadialProfile profile = view.winding == 1 ? radialProfile(view, profileDirections()) : RadialProfile{};
+        if (view.winding == 1 && misregistration(member.view, member.profile, view, profile) < own) {
+            endLoop.view = std::move(view);
+            endLoop.profile = std::move(profile);
+        }
+    }
+    if (endLoop.view.winding != 1) return std::nullopt;
+    return endLoop;
+}
+
+bool Reconstruction::sharedWithOthers(int s, int l, const BoundaryLoop& candidate) const
+{
+    const std::vector<SliceLoop>& plane = mLoops[static_cast<std::size_t>(s)];
+    for (std::size_t k = 0; k < plane.size(); ++k)
+        if (static_cast<int>(k) != l && plane[k].loop.hole() == candidate.hole() &&
+            overlapPixels(plane[k].loop, candidate, glm::ivec2(0)) > 0)
+            return true;
+    return false;
+}
+
+double Reconstruction::roomPast(double w, double direction) const
+{
+    double room = std::numeric_limits<double>::infinity();
+    for (const int plane : mGraph.order) {
+        const double ahead = direction * (mPositions[plane] - w);
+        if (ahead > 0.0) room = std::min(room, ahead);
+    }
+    return room;
+}
+
+void Reconstruction::appendEndContour(Tube& tube, bool top, double w, SliceLoop loop)
+{
+    mPositions.push_back(w);
+    mLoops.push_back({});
+    mLoops.back().push_back(std::move(loop));
+    const std::pair<int, int> added{static_cast<int>(mPositions.size()) - 1, 0};
+    if (top)
+        tube.members.push_back(added);
+    else
+        tube.members.insert(tube.members.begin(), added);
+    ++mStats.endContours;
+}
+
+void Reconstruction::meetHalfway(Tube& tube, bool top)
+{
+    // An end where the object goes on: the contours on either side of the unresolved piece reach
+    // to the slab's middle, unchanged (cut against their own polygon there), and are capped flat
+    // where they meet. Capped on their own planes, they left the slab's layer of the object out
+    // (the smoke at iso 0.1: 5.8 voxels of isosurface uncovered). The middle plane's own loops
+    // are no end for them: which of them continues a contour is what the piece left unresolved
+    // (an island in a blob's hole took the blob's wall, and the smoke's area grew sixfold).
+    const double direction = top ? 1.0 : -1.0;
+    const auto [s, l] = top ? tube.members.back() : tube.members.front();
+    const double room = roomPast(mPositions[s], direction);
+    if (!std::isfinite(room)) return;
+    SliceLoop prism = mLoops[s][l];
+    prism.onPolygon = true;
+    appendEndContour(tube, top, mPositions[s] + direction * 0.5 * room, std::move(prism));
+}
+
+bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
+{
+    // A tube end that no junction joins. Where the axis through the end contour's central point
+    // leaves the object, an end contour a quarter voxel inside that point is added, so caps sit
+    // within a quarter voxel of flat ends and follow rounded ones; the apex is then sought again
+    // from it. (Closer in, the field's rounding at the rim of a flat end shrinks the end contour:
+    // the bean's top level is 0.75 voxels off with 0.1, 0.53 with 0.25, 0.62 with 0.5.) Where the
+    // region inside the contour reaches farther than that axis (a flat end twisted, so the axis
+    // leaves through the side: the twisting C's cap was 1.65 voxels below its end), the end
+    // contour goes a quarter voxel inside the farthest reach instead, at most a slice spacing on.
+    // The next call goes on from it: a twisted end gets two, the first from the axis.
+    TubeEnd& end = top ? tube.top : tube.bottom;
+    const double direction = top ? 1.0 : -1.0;
+    const auto [s, l] = top ? tube.members.back() : tube.members.front();
+    const SliceLoop& member = mLoops[s][l];
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    const double reach = std::min(endReach(mOptions), direction * (end.wBound - plane.w()));
+    double wApex = plane.w();
+    const double sign = tube.hole ? -1.0 : 1.0;
+    end.hasApex = findApex(plane, member.view.center, direction, reach, wApex, sign);
+    end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
+    // Without one (the axis starts at a pinch, or in a hole), a hole's end looks further at once:
+    // if its outside ends (a cavity's lid) it is no pipe's opening; a wall's end only if no rim
+    // joins it (probeAnyway), as a pipe's wall around its opening reaches past the plane too.
+    double wFar = wApex;
+    const bool reaches =
+        (end.hasApex || tube.hole || probeAnyway) && farthestReach(plane, member.loop, direction, reach, wFar, sign);
+    if (!end.hasApex && !reaches) return false;
+    if (!end.hasApex) wApex = wFar;
+    end.hasApex = true;
+    end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wApex);
+    // A cap leaves out what the region reaches past its apex. On a rounded end that is little
+    // (the bean's tilted domes: 0.12 voxel); half a voxel or more is an end the axis left early
+    // (the C twisting 15 degrees per voxel: its top apex 0.33 voxel past the last slice, its flat
+    // end 1.0, capped at the slice without an end contour).
+    constexpr double kCapSlack = 0.5;
+    const double wTarget = reaches && direction * (wFar - wApex) > kCapSlack ? wFar : wApex;
+    // The end band is held to the bands' rule (correspond): halved, down to half a voxel, while
+    // it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
+    // degrees of turn in one step, was 1.07 voxels off).
+    double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
+    if (step < 0.25) return false;
+    // An end contour's plane holds it alone: the loops it must keep off are those of the tube's
+    // last plane of the graph (the smoke at iso 0.1: a speck's second end contour took a ring of
+    // 1698 pixels around another object's hole, capped flat 5.7 voxels off the surface).
+    std::pair<int, int> onGraph{s, l};
+    for (std::size_t k = 0; k < tube.members.size(); ++k) {
+        onGraph = tube.members[top ? tube.members.size() - 1 - k : k];
+        if (std::find(mGraph.order.begin(), mGraph.order.end(), onGraph.first) != mGraph.order.end()) break;
+    }
+    std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph);
+    while (endLoop && step > 0.5 &&
+           misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister) {
+        std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step, onGraph);
+        if (!closer) break;
+        endLoop = std::move(closer);
+        step *= 0.5;
+    }
+    if (!endLoop) return false;
+    const double wEnd = plane.w() + direction * step;
+    const glm::dvec2 center = endLoop->view.center;
+    appendEndContour(tube, top, wEnd, std::move(*endLoop)); // `member` dangles from here on
+    double wAgain = wEnd;
+    end.hasApex = findApex(SlicePlane(mVolume, mPlan, wEnd), center, direction,
+                           std::min(2.0 * kEndInset + 1.0, direction * (end.wBound - wEnd)), wAgain, sign);
+    end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
+    return true;
+}
+
+void Reconstruction::closeEnds()
+{
+    for (Tube& tube : mTubes) {
+        for (const bool top : {false, true}) {
+            const double direction = top ? 1.0 : -1.0;
+            const double w = mPositions[(top ? tube.members.back() : tube.members.front()).first];
+            (top ? tube.top : tube.bottom).wBound = w + direction * (roomPast(w, direction) + kPastNextPlane);
+        }
+    }
+    // Holes first: a wall whose end plane holds a hole that stays open past it (no lid found)
+    // is that hole's rim, whatever its own end does at its central point.
+    for (const bool holes : {true, false})
+        for (Tube& tube : mTubes) {
+            if (tube.hole != holes) continue;
+            for (const bool top : {false, true}) {
+                // Where the object goes on, the region past the plane is another tube's, and end
+                // contours sought in it would stack inside the solid (the smoke at iso 0.1: walls
+                // capped at unresolved pieces ran 8 end contours, 16 voxels, into the blob, and the
+                // mesh's volume was 40 times the isosurface's); the contour meets the other side's
+                // halfway instead, under a flat cap.
+                const TubeEnd& end = top ? tube.top : tube.bottom;
+                if (end.goesOn) meetHalfway(tube, top);
+                if (end.joined() || end.goesOn || end.aroundWall || end.rim) continue;
+                const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
+                if (!holes && std::any_of(mTubes.begin(), mTubes.end(), rim)) continue;
+                for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
+                }
+            }
+        }
+    // A wall's end that the axis through its central point does not meet and no rim joins (a
+    // block around cavities, whose centre lies in them) is sought from points all over it.
+    for (Tube& tube : mTubes) {
+        for (const bool top : {false, true}) {
+            const TubeEnd& end = top ? tube.top : tube.bottom;
+            const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
+            if (tube.hole || end.hasApex || end.joined() || end.goesOn || end.aroundWall || end.rim ||
+                std::any_of(mTubes.begin(), mTubes.end(), rim))
+                continue;
+            for (int added = 0; added < kMostEndContours && addEndContour(tube, top, true); ++added) {
+            }
+        }
+    }
+    // One cap style for every level, so that levels nest: an apex fan where the end contour is
+    // star-shaped with the finest rays (a ray crossing it more than once would at every finer
+    // level too), ear clipping otherwise.
+    const RaySet finest{mOptions.baseRays, mOptions.levels - 1};
+    for (Tube& tube : mTubes) {
+        for (const bool top : {false, true}) {
+            TubeEnd& end = top ? tube.top : tube.bottom;
+            if (!end.hasApex) continue;
+            const auto [s, l] = top ? tube.members.back() : tube.members.front();
+            const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+            const Contour c = castRays(mLoops[s][l].view, finest, plane);
+            end.fan = !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
+        }
+    }
+    // A lone contour closed flat on both sides would get the same triangles twice. It is a speck
+    // within a voxel of one plane (the smoke at iso 0.1: 3-voxel blobs and voids in one voxel
+    // plane, L-shaped, so no point of theirs sees all of them), and the isosurface has it as a
+    // component of its own: where either end found how far it reaches, that end fans round its
+    // apex anyway. A fold there is smaller than the speck; leaving it out costs a component.
+    const auto lone = [](const Tube& t) {
+        return t.members.size() == 1 && !t.bottom.fan && !t.top.fan && !t.bottom.joined() && !t.top.joined() &&
+               !t.bottom.aroundWall && !t.top.aroundWall && !t.bottom.rim && !t.top.rim;
+    };
+    for (Tube& tube : mTubes) {
+        if (!lone(tube)) continue;
+        const double w = mPositions[tube.members.front().first];
+        const auto reach = [&](const TubeEnd& end) {
+            return end.hasApex ? std::abs(end.apexIndex[mPlan.axis] - w) : -1.0;
+        };
+        TubeEnd& farther = reach(tube.top) >= reach(tube.bottom) ? tube.top : tube.bottom;
+        farther.fan = farther.hasApex;
+        if (!farther.fan) fanPastTheNextPlane(tube);
+    }
+    // Any lone contour left without a fan encloses nothing that was found: it is dropped (and
+    // counted) rather than meshed as a flat pillow.
+    mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), lone));
+    mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), lone), mTubes.end());
+    if (mTubes.empty())
+        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
+                        "': every cross-section lies in a single slice and cannot be closed; lower the spacing",
+                    {Setting::Spacing});
+    joinRims();
+    joinHolesAroundWalls();
+}
+
+void Reconstruction::fanPastTheNextPlane(Tube& tube) const
+{
+    // The graph counts the lone contour as an object of its own, ending within the slabs on
+    // either side, but the field can go on past the next plane where that plane's image closes
+    // the region (a bridge, slicer.h): a void of one voxel beside a contact volumeToMesh parts,
+    // whose ends the search for an apex did not find within its reach. Dropped, the mesh lost
+    // the component its events count; its apex goes to the middle of a slab the field fills.
+    const auto [s, l] = tube.members.front();
+    const SliceLoop& member = mLoops[s][l];
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    const double sign = tube.hole ? -1.0 : 1.0;
+    if (!(sign * plane.sampleAt(member.view.center, plane.w()) < 0.0)) return;
+    for (const bool top : {false, true}) {
+        const double direction = top ? 1.0 : -1.0;
+        const double room = roomPast(plane.w(), direction);
+        if (!std::isfinite(room)) continue;
+        const double wMiddle = plane.w() + direction * 0.5 * room;
+        if (!(sign * plane.sampleAt(member.view.center, wMiddle) < 0.0)) continue;
+        TubeEnd& end = top ? tube.top : tube.bottom;
+        end.hasApex = end.fan = true;
+        end.apexIndex = planeToIndex(mPlan.axis, member.view.center, wMiddle);
+        return;
+    }
+}
+
+bool Reconstruction::formRim(const Tube& outer, const Tube& hole, bool top) const
+{
+    const TubeEnd &outerEnd = top ? outer.top : outer.bottom, &holeEnd = top ? hole.top : hole.bottom;
+    const auto [os, ol] = top ? outer.members.back() : outer.members.front();
+    const auto [hs, hl] = top ? hole.members.back() : hole.members.front();
+    // A hole whose outside ends just past it (a cavity's lid) is no pipe's opening.
+    return !outer.hole && hole.hole && !outerEnd.hasApex && !holeEnd.hasApex && outerEnd.annulus < 0 &&
+           !outerEnd.joined() && !holeEnd.joined() && !outerEnd.aroundWall && !holeEnd.aroundWall && os == hs &&
+           encloses(mLoops[os][ol].loop, mLoops[hs][hl].view.center);
+}
+
+void Reconstruction::joinRims()
+{
+    // Hollow pipes: where a hole tube ends in the same plane as the outer tube around it, the two
+    // end contours are joined by an annulus, the pipe's rim, instead of closing each wall by a
+    // cap of its own (two caps over the hollow, far from any surface). A wall around several such
+    // holes (dimples in a face the grid's box cuts) is the rim of them all.
+    struct Rim {
+        int wall;
+        bool top;
+        std::vector<int> holes;
+    };
+    std::vector<Rim> rims; // in the order of their first hole, as the annuli were always made
+    for (int h = 0; h < static_cast<int>(mTubes.size()); ++h) {
+        if (!mTubes[h].hole) continue;
+        for (const bool top : {false, true}) {
+            if ((top ? mTubes[h].top : mTubes[h].bottom).joined()) continue;
+            // The innermost wall around its boundary: a pipe inside a pipe, both ending here, is
+            // two rims (the inner wall may enclose the outer hole's central point, not its edge).
+            const auto [hs, hl] = top ? mTubes[h].members.back() : mTubes[h].members.front();
+            const glm::dvec2 edge = mLoops[hs][hl].loop.points.front();
+            int best = -1;
+            double bestArea = 0.0;
+            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
+                if (!formRim(mTubes[o], mTubes[h], top)) continue;
+                const auto [os, ol] = top ? mTubes[o].members.back() : mTubes[o].members.front();
+                if (!encloses(mLoops[os][ol].loop, edge)) continue;
+                const double area = std::abs(polygonArea(mLoops[os][ol].view.polygon));
+                if (best >= 0 && area >= bestArea) continue;
+                best = o;
+                bestArea = area;
+            }
+            if (best < 0) continue;
+            const auto same = [&](const Rim& r) { return r.wall == best && r.top == top; };
+            const auto rim = std::find_if(rims.begin(), rims.end(), same);
+            if (rim != rims.end())
+                rim->holes.push_back(h);
+            else
+                rims.push_back({best, top, {h}});
+        }
+    }
+    // A face the grid's box cuts, at its first or last plane, is meshed from its cells out to the
+    // empty plane past the box, as volumeToMesh closes it (patchFace). Tiled in the plane, from
+    // each hole to the arc of the wall nearest it, it lay over the bays of a wall its holes do
+    // not see whole (a crop of the smoke: 2.4 voxels off at the top level); and where a keyhole's
+    // slit behind a ring lay in the same plane, no triangulation of the slit avoided all of the
+    // annulus's diagonals (an edge with four triangles).
+    for (const auto& [wall, top, holes] : rims) {
+        if (patchFace(wall, holes, top)) continue;
+        if (holes.size() > 1 && joinRimFace(wall, holes, top)) continue;
+        const int h = holes.front();
+        joinAnnulus(wall, h, top);
+        const double w = mPositions[(top ? mTubes[h].members.back() : mTubes[h].members.front()).first];
+        const double room = (top ? 1.0 : -1.0) * ((top ? mTubes[h].top : mTubes[h].bottom).wBound - w);
+        addRimContours(mTubes[wall], mTubes[h], top, std::min(endReach(mOptions), room), kEndInset);
+    }
+}
+
+void Reconstruction::joinHolesAroundWalls()
+{
+    // A hole around a wall (markRim): the wall in its plane that it encloses.
+    for (int h = 0; h < static_cast<int>(mTubes.size()); ++h)
+        for (const bool top : {false, true}) {
+            const auto endOf = [&](int t) { return top ? mTubes[t].members.back() : mTubes[t].members.front(); };
+            if (!mTubes[h].hole || !(top ? mTubes[h].top : mTubes[h].bottom).aroundWall) continue;
+            const auto [hs, hl] = endOf(h);
+            for (int o = 0; o < static_cast<int>(mTubes.size()); ++o) {
+                const TubeEnd& wallEnd = top ? mTubes[o].top : mTubes[o].bottom;
+                const auto [os, ol] = endOf(o);
+                if (mTubes[o].hole || !wallEnd.aroundWall || wallEnd.annulus >= 0 || os != hs ||
+                    !encloses(mLoops[hs][hl].loop, mLoops[os][ol].loop.points.front()))
+                    continue;
+                joinAnnulus(o, h, top);
+                break;
+            }
+        }
+}
+
+void Reconstruction::joinAnnulus(int wall, int hole, bool top)
+{
+    (top ? mTubes[wall].top : mTubes[wall].bottom).annulus = hole;
+    (top ? mTubes[hole].top : mTubes[hole].bottom).annulus = wall;
+    ++mStats.annularCaps;
+}
+
+bool Reconstruction::joinRimFace(int wall, const std::vector<int>& holes, bool top)
+{
+    // The slab's Rim junction (makeJunction) with no slab: the wall's polygon split into one arc
+    // per hole through a hub, each arc tiled to its hole, in the plane.
+    const auto endOf = [&](const Tube& tube) { return top ? tube.members.back() : tube.members.front(); };
+    Junction junction;
+    junction.kind = EventKind::Rim;
+    junction.top = top;
+    junction.single = endOf(mTubes[wall]);
+    for (int h : holes) junction.many.push_back(endOf(mTubes[h]));
+    if (!splitJunction(junction)) return false;
+    const int id = addJunction(std::move(junction));
+    (top ? mTubes[wall].top : mTubes[wall].bottom).junction = id;
+    for (int h : holes) (top ? mTubes[h].top : mTubes[h].bottom).junction = id;
+    centreParts(static_cast<std::size_t>(id));
+    return true;
+}
+
+bool Reconstruction::patchFace(int wall, const std::vector<int>& holes, bool top)
+{
+    // A hole that no nearest wall point sees (inside, behind others: a face of the smoke's crop
+    // with six dimples) owns no arc of the wall, and the face would have been an annulus for one
+    // hole, the others closed flat as voids of their own. Past the first or last plane, the
+    // cells out to empty space give that face, with all its holes.
+    const auto endOf = [&](const Tube& tube) { return top ? tube.members.back() : tube.members.front(); };
+    const int s = endOf(mTubes[wall]).first;
+    if (s != (top ? mGraph.order.back() : mGraph.order.front())) return false;
+    std::vector<int> loops{endOf(mTubes[wall]).second};
+    for (int h : holes) loops.push_back(endOf(mTubes[h]).second);
+    std::sort(loops.begin(), loops.end());
+    std::vector<SlabPiece>& past = top ? mGraph.afterLast : mGraph.beforeFirst;
+    const auto piece =
+        std::find_if(past.begin(), past.end(), [&](const SlabPiece& p) { return (top ? p.below : p.above) == loops; });
+    if (piece == past.end()) return false;
+    const int below = top ? s : -1, above = top ? -1 : s;
+    std::optional<SlabPatch> surface = std::move(patchesOf(below, above, {&*piece}).front());
+    if (!surface) return false;
+    const int id = addPatch(below, above, *piece, std::move(*surface));
+    (top ? mTubes[wall].top : mTubes[wall].bottom).patch = id;
+    for (int h : holes) (top ? mTubes[h].top : mTubes[h].bottom).patch = id;
+    return true;
+}
+
+void Reconstruction::addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset)
+{
+    // Where the wall itself ends: from a point in the middle of the wall (halfway from a point of
+    // the hole's loop to the nearest point of the outer loop), along the slicing axis.
+    const double direction = top ? 1.0 : -1.0;
+    const auto [s, ol] = top ? outer.members.back() : outer.members.front();
+    const int hl = (top ? hole.members.back() : hole.members.front()).second;
+    const BoundaryLoop& outerLoop = mLoops[s][ol].loop;
+    const BoundaryLoop& holeLoop = mLoops[s][hl].loop;
+    if (outerLoop.points.empty() || holeLoop.points.empty()) return;
+    const glm::dvec2 h = holeLoop.points.front();
+    glm::dvec2 o = outerLoop.points.front();
+    for (const glm::dvec2& p : outerLoop.points)
+        if (glm::dot(p - h, p - h) < glm::dot(o - h, o - h)) o = p;
+    const glm::dvec2 wall = 0.5 * (h + o);
+    const SlicePlane plane(mVolume, mPlan, mPositions[s]);
+    double wEnd = plane.w();
+    if (!findApex(plane, wall, direction, reach, wEnd)) return;
+    wEnd -= direction * inset;
+    if (direction * (wEnd - plane.w()) < 0.25) return;
+    // The two walls' loops on that plane: the outer one around the hole's centre, and the hole
+    // nearest to it; both must still wind once around their central points.
+    const SlicePlane endPlane(mVolume, mPlan, wEnd);
+    std::vector<BoundaryLoop> loops = traceBoundaries(endPlane);
+    const glm::dvec2 holeCenter = mLoops[s][hl].view.center;
+    auto nearestAround = [&](bool holeLoop) {
+        return nearest(
+            static_cast<int>(loops.size()), holeCenter, [&](int k) { return loops[k].centroid; },
+            [&](int k) {
+                return loops[k].hole() == holeLoop && std::abs(loops[k].area) >= mOptions.minContourArea &&
+                       encloses(loops[k], holeCenter);
+            });
+    };
+    const int bestOuter = nearestAround(false), bestHole = nearestAround(true);
+    if (bestOuter < 0 || bestHole < 0) return;
+    LoopView outerView = viewFrom(loops[bestOuter], centralPoint(loops[bestOuter]));
+    LoopView holeView = viewFrom(loops[bestHole], centralPoint(loops[bestHole]));
+    if (outerView.winding != 1 || holeView.winding != 1) return;
+    mPositions.push_back(wEnd);
+    mLoops.push_back({});
+    RadialProfile outerProfile = radialProfile(outerView, profileDirections());
+    RadialProfile holeProfile = radialProfile(holeView, profileDirections());
+    mLoops.back().push_back({std::move(loops[bestOuter]), std::move(outerView), std::move(outerProfile)});
+    mLoops.back().push_back({std::move(loops[bestHole]), std::move(holeView), std::move(holeProfile)});
+    const int plane2 = static_cast<int>(mPositions.size()) - 1;
+    for (const auto& [tube, loop] : {std::pair<Tube*, int>{&outer, 0}, std::pair<Tube*, int>{&hole, 1}}) {
+        if (top)
+            tube->members.push_back({plane2, loop});
+        else
+            tube->members.insert(tube->members.begin(), {plane2, loop});
+    }
+    mStats.endContours += 2;
 }
 
 } // namespace pipetile

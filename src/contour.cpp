@@ -1001,6 +1001,23 @@ RadialProfile radialProfile(const LoopView& view, int directions)
     return profile;
 }
 
+double misregistration(const LoopView& a, const RadialProfile& p, const LoopView& b, const RadialProfile& q)
+{
+    constexpr double kPi = 3.14159265358979323846;
+    const std::size_t directions = std::min(p.nearest.size(), q.nearest.size());
+    double sum = 0.0;
+    long long count = 0;
+    for (std::size_t d = 0; d < directions; ++d) {
+        if (!std::isfinite(p.farthest[d]) || !std::isfinite(q.farthest[d])) continue;
+        const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(directions);
+        const glm::dvec2 unit(std::cos(angle), std::sin(angle));
+        sum += glm::length(a.center + p.nearest[d] * unit - (b.center + q.nearest[d] * unit)) +
+               glm::length(a.center + p.farthest[d] * unit - (b.center + q.farthest[d] * unit));
+        count += 2;
+    }
+    return count > 0 ? sum / static_cast<double>(count) : std::numeric_limits<double>::infinity();
+}
+
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     return castRaysImpl(view, rays, plane);

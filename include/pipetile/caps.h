@@ -1,7 +1,8 @@
 // pipetile — caps: closing where tubes end. A tube's end is sought beyond its last slice along
 // the slicing axis (the apex), so caps follow rounded ends instead of cutting them flat; an end
 // contour that is not star-shaped is closed flat by ear clipping. Rims, annuli and the end
-// contours themselves are placed by the reconstruction's closeEnds stage (multires.h) with these.
+// contours themselves are placed with these by the reconstruction's closeEnds stage (multires.h),
+// which caps.cpp defines too.
 #pragma once
 
 #include <pipetile/contour.h>

@@ -204,6 +204,12 @@ struct RadialProfile {
 };
 RadialProfile radialProfile(const LoopView& view, int directions);
 
+/// How far apart a band between two loops puts the points that rays of one direction meet, each
+/// from its own loop's central point: the mean distance between the two profiles' nearest and
+/// farthest crossings, in-plane, over the directions both have (pixels); infinite where no
+/// direction has both.
+double misregistration(const LoopView& a, const RadialProfile& p, const LoopView& b, const RadialProfile& q);
+
 /// Casts `rays` from the view's centre (pixels) against the loop and classifies the edges. `plane`
 /// is only read during the call. The loop's points fix which crossings exist and their order; each
 /// position is then refined to the root of the field interpolated along the ray, between the

@@ -294,6 +294,8 @@ private:
     /// (SlabPiece::handles); returns its index.
     int addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface);
     bool splitJunction(Junction& junction) const;
+    /// Appends a split junction and counts it (its kind, keyhole and saddles); returns its index.
+    int addJunction(Junction&& junction);
     /// The junction's parts, from its arcs and nodes (see Junction::Part).
     void composeParts(Junction& junction) const;
     void followCentres();
@@ -319,6 +321,7 @@ private:
     /// in better register (see followCentres).
     void followBack(const Tube& tube, std::size_t k);
     SliceLoop& memberLoop(const Tube& tube, std::size_t k);
+    // The ends' stage and its helpers, down to addRimContours: caps.cpp.
     void closeEnds();
     /// How far the next plane of the graph lies past plane w (toward +w for direction 1, -w for
     /// -1): the slab that holds an end there; infinite past the last plane.
@@ -337,8 +340,6 @@ private:
     /// Hollow pipes' rims: a hole and the wall around it ending in one plane, joined by an annulus;
     /// a wall around several such holes, by a face with those holes (joinRimFace).
     void joinRims();
-    /// Appends a split junction and counts it (its kind, keyhole and saddles); returns its index.
-    int addJunction(Junction&& junction);
     /// The ends markRim marked, each hole's with the wall it encloses, by an annulus.
     void joinHolesAroundWalls();
     /// Joins the two tubes' ends on that side by an annulus (TubeEnd::annulus).
@@ -360,11 +361,11 @@ private:
     /// Whether `candidate` overlaps a loop of plane s other than l (of its kind): the slab keeps
     /// those on other pieces than l's, so it is no end contour of l's tube.
     bool sharedWithOthers(int s, int l, const BoundaryLoop& candidate) const;
+    /// A hollow pipe's rim: end contours of both walls where the wall ends, past their last slice.
+    void addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset);
     void groupRays();
     /// Sets each tube member's fromLevel (see the top of this header).
     void chooseSlices();
-    /// A hollow pipe's rim: end contours of both walls where the wall ends, past their last slice.
-    void addRimContours(Tube& outer, Tube& hole, bool top, double reach, double inset);
 
     Volume mVolume;
     MeshOptions mOptions;
