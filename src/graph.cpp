@@ -1,10 +1,18 @@
-// pipetile — graph: correspondence of contours through the slab between planes (TOPOLOGY.md).
+// pipetile — graph: correspondence of contours through the slab between planes (TOPOLOGY.md), and
+// the reconstruction's stages that build its skeleton on it (multires.h): correspond (the graph,
+// with the planes it adds) and resolve events (junctions, waists, patches, a band's own planes).
 
+#include <pipetile/caps.h>
 #include <pipetile/graph.h>
+#include <pipetile/multires.h>
+#include <pipetile/validate.h>
+
+#include "reconstruction_state.h"
 
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <iterator>
@@ -13,6 +21,8 @@
 #include <numeric>
 #include <optional>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 namespace pipetile {
 
@@ -1379,6 +1389,843 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
         keyhole = {slit.wall, slit.hole, walls, holes, stretch};
     }
     return keyhole.open();
+}
+
+// The reconstruction's correspond and resolveEvents stages.
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// Slabs holding an event are halved until at most this thick, in voxels (correspond()).
+constexpr double kEventThickness = 0.5;
+
+// Pixels of a keyhole's slit that may lie where the partners' plane is inside before its junction
+// goes to the cells (resolveEvents): as many as a junction's chords may cross (graph.cpp,
+// cutsNearest).
+constexpr double kMaxBlocked = 1.0;
+// Pixels a band's contours may change shape by before its slab is halved (correspond()).
+constexpr double kShapeChange = 3.0;
+// Pixels the isosurface may lie from a band's straight triangles, between its planes, before the
+// band takes a plane between (splitBand) or its cells (strayingBandPatch). That is the top level's
+// bound, a voxel, with a margin: a distance across the plane overstates the distance to a surface
+// that leans toward the plane, which is where loops change the most (at 1 pixel, 2.4 times the
+// planes on the smoke's crops brought no run more within a voxel of the isosurface).
+constexpr double kBandStray = 1.5;
+
+// The band's straight surface between loop a below and loop b above, at fraction t of the way up,
+// in direction d of the profiles' n: its points at the nearest and the farthest radius, the loops'
+// radial profiles and central points interpolated (infinite where a ray misses either loop).
+std::array<glm::dvec2, 2> bandPoints(const PlaneLoops& lower, int a, const PlaneLoops& upper, int b, std::size_t d,
+                                     std::size_t n, double t)
+{
+    const RadialProfile& p = *lower.profiles[a];
+    const RadialProfile& r = *upper.profiles[b];
+    const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(n);
+    const glm::dvec2 direction(std::cos(angle), std::sin(angle));
+    const glm::dvec2 center = (1.0 - t) * lower.centers[a] + t * upper.centers[b];
+    std::array<glm::dvec2, 2> points;
+    int k = 0;
+    for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
+        const double expected = (1.0 - t) * (p.*radius)[d] + t * (r.*radius)[d];
+        points[k++] = std::isfinite(expected) ? center + direction * expected
+                                              : glm::dvec2(std::numeric_limits<double>::infinity());
+    }
+    return points;
+}
+
+// How far the middle plane's loop lies from where the band's straight triangles put it, in pixels:
+// the loops' radial profiles (each from its own central point) give, per direction, the middle
+// loop's nearest and farthest crossings and the band's, the means of the lower and upper loops'.
+// Each point of either set is as far as the nearest point of the other within a sixteenth of a
+// turn either way, so that a shift across an oblique boundary counts its distance, not its length
+// along a ray.
+double strayFromBand(const PlaneLoops& lower, int a, const PlaneLoops& middle, int m, const PlaneLoops& upper, int b)
+{
+    const RadialProfile& q = *middle.profiles[m];
+    const std::size_t n =
+        std::min({lower.profiles[a]->nearest.size(), q.nearest.size(), upper.profiles[b]->nearest.size()});
+    if (n == 0) return 0.0;
+    // Per direction: the band's two points halfway up, then the loop's (infinite where a ray misses).
+    std::vector<std::array<glm::dvec2, 4>> points(n);
+    const glm::dvec2 none(std::numeric_limits<double>::infinity());
+    for (std::size_t d = 0; d < n; ++d) {
+        const std::array<glm::dvec2, 2> band = bandPoints(lower, a, upper, b, d, n, 0.5);
+        const double angle = 2.0 * kPi * static_cast<double>(d) / static_cast<double>(n);
+        const glm::dvec2 direction(std::cos(angle), std::sin(angle));
+        points[d][0] = band[0];
+        points[d][1] = band[1];
+        int k = 2;
+        for (const auto& radius : {&RadialProfile::nearest, &RadialProfile::farthest}) {
+            const double actual = (q.*radius)[d];
+            points[d][k++] = std::isfinite(actual) ? middle.centers[m] + direction * actual : none;
+        }
+    }
+    // The largest of the nearest distances, squared. A point's search stops at the first point
+    // within the largest so far, which it cannot raise; searched from its own direction outward,
+    // most points stop at once (a tree's bands took 8% of its time before).
+    const std::size_t window = std::max<std::size_t>(n / 16, 1);
+    double stray2 = 0.0;
+    for (std::size_t d = 0; d < n; ++d)
+        for (int k = 0; k < 4; ++k) {
+            const glm::dvec2& from = points[d][k];
+            if (!std::isfinite(from.x)) continue;
+            double nearest2 = std::numeric_limits<double>::infinity();
+            for (std::size_t step = 0; step <= 2 * window && nearest2 > stray2; ++step) {
+                const std::size_t e = (step % 2 == 0 ? n + d + step / 2 : n + d - (step + 1) / 2) % n;
+                for (const int other : k < 2 ? std::array<int, 2>{2, 3} : std::array<int, 2>{0, 1}) {
+                    const glm::dvec2 to = points[e][other] - from;
+                    if (std::isfinite(to.x)) nearest2 = std::min(nearest2, glm::dot(to, to));
+                }
+            }
+            if (std::isfinite(nearest2)) stray2 = std::max(stray2, nearest2);
+        }
+    return std::sqrt(stray2);
+}
+
+// How far the patch's vertices inside its slab lie from the straight surface of the band between
+// loop a below and loop b above, in pixels: each against the loops' radial profiles interpolated to
+// its own w, within a sixteenth of a turn of its own direction (as strayFromBand).
+double patchStrayFromBand(const SlabPatch& patch, int axis, const PlaneLoops& lower, int a, const PlaneLoops& upper,
+                          int b)
+{
+    const std::size_t n = std::min(lower.profiles[a]->nearest.size(), upper.profiles[b]->nearest.size());
+    if (n == 0) return 0.0;
+    const std::size_t window = std::max<std::size_t>(n / 16, 1);
+    double stray = 0.0;
+    for (const SlabPatch::Vertex& v : patch.vertices) {
+        if (v.plane >= 0) continue;
+        const double t = (v.index[axis] - lower.w) / (upper.w - lower.w);
+        const glm::dvec2 center = (1.0 - t) * lower.centers[a] + t * upper.centers[b];
+        const glm::dvec2 uv(v.index[(axis + 1) % 3], v.index[(axis + 2) % 3]);
+        double angle = std::atan2(uv.y - center.y, uv.x - center.x);
+        if (angle < 0.0) angle += 2.0 * kPi;
+        const std::size_t d = static_cast<std::size_t>(std::lround(angle / (2.0 * kPi) * static_cast<double>(n))) % n;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (std::size_t e = n + d - window; e <= n + d + window; ++e)
+            for (const glm::dvec2& point : bandPoints(lower, a, upper, b, e % n, n, t))
+                if (std::isfinite(point.x)) nearest = std::min(nearest, glm::length(point - uv));
+        if (std::isfinite(nearest)) stray = std::max(stray, nearest);
+    }
+    return stray;
+}
+
+// The middle of the chord that closes a gap's arc, from cut `from` to cut `to` of `polygon`;
+// `sign` is -1 where the part runs the other way round (a hole's part of a wall). The chord's
+// midpoint, unless the arc bends past it (a gap opening onto a contour that runs nearly straight:
+// the trifurcation's 2-pixel holes between its branches): the part of arc and midpoint would run
+// clockwise, wind around no point, and take no ray. There the middle moves off the chord, half a
+// pixel past the arc's farthest point, so that the part encloses room for its partner's rays.
+glm::dvec2 gapMiddle(const std::vector<glm::dvec2>& polygon, int from, int to, double sign)
+{
+    constexpr double kPastArc = 0.5; // pixels
+    const glm::dvec2 first = polygon[static_cast<std::size_t>(from)], last = polygon[static_cast<std::size_t>(to)];
+    const glm::dvec2 middle = 0.5 * (first + last);
+    std::vector<glm::dvec2> part;
+    for (std::size_t p = static_cast<std::size_t>(from);; p = (p + 1) % polygon.size()) {
+        part.push_back(polygon[p]);
+        if (p == static_cast<std::size_t>(to)) break;
+    }
+    part.push_back(middle);
+    const glm::dvec2 chord = first - last;
+    if (sign * polygonArea(part) > 0.0 || glm::length(chord) == 0.0) return middle;
+    // The direction in which moving the middle adds area to the part as it runs.
+    const glm::dvec2 away = sign * glm::dvec2(chord.y, -chord.x) / glm::length(chord);
+    double past = 0.0;
+    for (const glm::dvec2& q : part) past = std::max(past, glm::dot(q - middle, away));
+    return middle + (past + kPastArc) * away;
+}
+
+} // namespace
+
+void Reconstruction::correspond()
+{
+    // A fork's crotch is the chord across its contour's neck, which lies within the slab's
+    // thickness of the saddle (the surface curves away from the chord by less than that), so
+    // event slabs are halved until they are at most half a voxel thick. So are bands whose
+    // contours change shape by more than 3 pixels (graph.h, shapeChange): a profile changing by
+    // d across the slab along a parabola strays d / 4 from the band's straight triangles, so
+    // this keeps them within 0.75 voxel where the shape changes smoothly, and splits the slab
+    // where it does not (the aorta's end: 1.19 voxels without), below half a voxel if need be
+    // (the hollow Y's crescents: 1.07 voxels off when halving stopped at half a voxel). Tubes
+    // that lean and turn (the helix: ellipses turning by up to 3 pixels between slices) follow
+    // their chords and get none.
+    std::vector<PlaneLoops> planes;
+    for (std::size_t s = 0; s < mLoops.size(); ++s) planes.push_back(planeLoops(static_cast<int>(s)));
+    std::vector<SliceCounts> dropped; // per added plane
+    const auto addPlane = [&](double w) {
+        mPositions.push_back(w);
+        dropped.emplace_back();
+        mLoops.push_back(traceContours(w, dropped.back())); // moving the outer vector keeps each loop in place
+        planes.push_back(planeLoops(static_cast<int>(planes.size())));
+        return static_cast<int>(planes.size()) - 1;
+    };
+    const auto dropLastPlane = [&] {
+        mPositions.pop_back();
+        dropped.pop_back();
+        mLoops.pop_back();
+        planes.pop_back();
+    };
+    // The cells' Euler characteristic layer by layer: where the slabs' pieces add up to another count, a
+    // handle at the voxel scale hides in them (graph.h).
+    const auto cells = [&] {
+        mCells = cellProfile();
+        return *mCells;
+    };
+    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane, cells);
+    mStats.addedPlanes = mGraph.addedPlanes;
+    mStats.cellMatches = mGraph.cellMatches;
+    for (const SliceCounts& counts : dropped) {
+        mStats.droppedSmall += counts.small;
+        mStats.droppedUnwound += counts.unwound;
+    }
+    for (std::size_t s = mPlan.positions.size(); s < mLoops.size(); ++s) {
+        mStats.contours += static_cast<int>(mLoops[s].size());
+        for (const SliceLoop& l : mLoops[s]) mStats.holes += l.loop.hole() ? 1 : 0;
+    }
+}
+
+void Reconstruction::resolveEvents()
+{
+    // Tubes grow along bands; every other piece ends the tubes of its lower contours and starts
+    // tubes for its upper ones. A junction joins those ends where it splits into arcs.
+    std::vector<std::vector<int>> tubeOf(mLoops.size());
+    for (std::size_t s = 0; s < mLoops.size(); ++s) tubeOf[s].assign(mLoops[s].size(), -1);
+    auto startTube = [&](int s, int l) {
+        tubeOf[s][l] = static_cast<int>(mTubes.size());
+        mTubes.emplace_back();
+        mTubes.back().hole = mLoops[s][l].loop.hole();
+        mTubes.back().members.push_back({s, l});
+        return tubeOf[s][l];
+    };
+    // A patch's loops end the tubes below it and start those above; the handles it found are the
+    // piece's.
+    auto joinPatch = [&](const ContourGraph::Slab& slab, SlabPiece& piece, SlabPatch&& surface) {
+        const int id = addPatch(slab.below, slab.above, piece, std::move(surface));
+        for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.patch = id;
+        for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.patch = id;
+    };
+    if (mGraph.order.empty()) return;
+    const int first = mGraph.order.front(), last = mGraph.order.back();
+    // The pieces out to the empty plane past the box: a wall and holes ending there are a rim; a
+    // piece joining several contours is patched where its cells close; the rest are ends.
+    const auto resolvePastTheBox = [&](std::vector<SlabPiece>& past, bool top) {
+        for (SlabPiece& piece : past) {
+            mStats.eventEuler += piece.euler();
+            const std::vector<int>& loops = top ? piece.below : piece.above;
+            if (piece.kind == EventKind::Rim)
+                markRim(top ? last : first, loops, top, tubeOf);
+            else if (loops.size() > 1)
+                patchPastTheBox(piece, top, tubeOf);
+        }
+    };
+    for (int l = 0; l < static_cast<int>(mLoops[first].size()); ++l) startTube(first, l);
+    mStats.starts += static_cast<int>(mLoops[first].size());
+    resolvePastTheBox(mGraph.beforeFirst, false);
+    // Where the cells count fewer than the pieces between two voxel planes (handles the pieces'
+    // 2 - a - b misses, which no cut showed: graph.h), a piece whose patch finds handles is
+    // meshed by it, whatever its kind, as long as the range still misses that many: patches
+    // between interpolated planes can each find the one handle the cells count (the smoke, y 16
+    // to 17: two patches, each with a handle), and the first in w takes it.
+    std::vector<EulerDifference> missed;
+    const auto countMissed = [&] {
+        missed.clear();
+        for (const EulerDifference& d : eulerDifferences(*mCells, mGraph, mPositions))
+            if (d.difference < 0) missed.push_back(d);
+    };
+    if (mCells) {
+        countMissed();
+        patchWholeRanges(missed);
+        countMissed(); // a whole range's pieces can count otherwise than its slabs' did
+    }
+    for (ContourGraph::Slab& slab : mGraph.slabs) {
+        BandMiddle middle; // the slab's middle plane, traced for its first band that asks
+        const auto range = std::find_if(missed.begin(), missed.end(), [&](const EulerDifference& d) {
+            return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
+        });
+        const bool missesHandles = range != missed.end();
+        // The patches the slab's pieces may take, in one pass over its cells: every piece's where
+        // handles were missed, else the unresolved ones'.
+        std::vector<const SlabPiece*> wanted;
+        std::vector<std::size_t> wantedAt;
+        for (std::size_t k = 0; k < slab.pieces.size(); ++k)
+            if (missesHandles || slab.pieces[k].kind == EventKind::Unresolved) {
+                wanted.push_back(&slab.pieces[k]);
+                wantedAt.push_back(k);
+            }
+        std::vector<std::optional<SlabPatch>> patches(slab.pieces.size()),
+            found = patchesOf(slab.below, slab.above, wanted);
+        for (std::size_t i = 0; i < found.size(); ++i) patches[wantedAt[i]] = std::move(found[i]);
+        for (std::size_t k = 0; k < slab.pieces.size(); ++k) {
+            SlabPiece& piece = slab.pieces[k]; // a patch records the handles it finds
+            std::optional<SlabPatch>& patch = patches[k];
+            mStats.eventEuler += piece.euler();
+            if (missesHandles && patch && patch->euler < piece.euler() &&
+                piece.euler() - patch->euler <= -range->difference) {
+                range->difference += piece.euler() - patch->euler;
+                joinPatch(slab, piece, std::move(*patch));
+                continue;
+            }
+            if (piece.kind == EventKind::Band) {
+                if (std::optional<SlabPatch> cells = strayingBandPatch(slab, piece)) {
+                    ++mStats.bandPatches;
+                    joinPatch(slab, piece, std::move(*cells));
+                    continue;
+                }
+                const int t = tubeOf[slab.below][piece.below[0]];
+                std::vector<int> steps;
+                splitBand(slab.below, piece.below[0], slab.above, piece.above[0], middle, steps);
+                for (const int plane : steps) {
+                    tubeOf.emplace_back(1, t);
+                    mTubes[t].members.push_back({plane, 0});
+                }
+                mStats.bandPlanes += static_cast<int>(steps.size());
+                mTubes[t].members.push_back({slab.above, piece.above[0]});
+                tubeOf[slab.above][piece.above[0]] = t;
+                continue;
+            }
+            const bool joins = piece.kind == EventKind::Fork || piece.kind == EventKind::Merge ||
+                               (piece.kind == EventKind::Rim && piece.below.size() + piece.above.size() > 2);
+            // The cells mesh a piece, where they close with its Euler characteristic, before any
+            // construction from contours that would stray: an n:m piece (a waist is the walls'
+            // union, wider than the slab's middle where a wall ends inside the slab: the smoke's
+            // top level 1.53 voxels off at one), and a fork or merge whose slab stayed thicker than
+            // the events' thickness (a plane between voxel planes showed other pieces).
+            const bool thick = joins && mPositions[slab.above] - mPositions[slab.below] > kEventThickness;
+            // The piece's patch, where no pass above took it already.
+            const auto cells = [&] {
+                if (!patch) patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+            };
+            if (thick) cells();
+            if ((thick || piece.kind == EventKind::Unresolved) && patch && patch->euler == piece.euler()) {
+                joinPatch(slab, piece, std::move(*patch));
+                continue;
+            }
+            Junction merge, fork;
+            if (piece.kind == EventKind::Unresolved && makeWaist(slab, piece, merge, fork)) {
+                const int waist = static_cast<int>(mLoops.size()) - 1, id = static_cast<int>(mJunctions.size());
+                tubeOf.emplace_back(1, -1);
+                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.junction = id;
+                const int t = startTube(waist, 0);
+                mTubes[t].bottom.junction = id;
+                mTubes[t].top.junction = id + 1;
+                for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id + 1;
+                ++mStats.waists;
+                mStats.saddles += static_cast<int>(piece.below.size() + piece.above.size()) - 2;
+                mJunctions.push_back(std::move(merge));
+                mJunctions.push_back(std::move(fork));
+                continue;
+            }
+            Junction junction;
+            if (joins && makeJunction(slab, piece, junction)) {
+                // A ring cut open by a slit that runs over material the partners' plane holds
+                // too puts the slit inside the surface, which closes the hole beyond that plane (a
+                // ring tree: no slit clear of it, 6 pixels blocked, 1.48 voxels off at the top
+                // level). The piece's cells mesh it instead, where they close.
+                if (junction.keyhole.blocked > kMaxBlocked) {
+                    cells();
+                    if (patch && patch->euler == piece.euler()) {
+                        joinPatch(slab, piece, std::move(*patch));
+                        continue;
+                    }
+                }
+                const int id = addJunction(std::move(junction));
+                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.junction = id;
+                for (int l : piece.above) mTubes[startTube(slab.above, l)].bottom.junction = id;
+                continue;
+            }
+            if (joins) cells();
+            if ((joins || piece.kind == EventKind::Unresolved) && patch) {
+                joinPatch(slab, piece, std::move(*patch));
+                continue;
+            }
+            for (int l : piece.above) startTube(slab.above, l);
+            if (piece.kind == EventKind::Rim && !joins) {
+                if (piece.above.empty())
+                    markRim(slab.below, piece.below, true, tubeOf);
+                else
+                    markRim(slab.above, piece.above, false, tubeOf);
+            }
+            if (joins || piece.kind == EventKind::Unresolved) {
+                for (int l : piece.below) mTubes[tubeOf[slab.below][l]].top.goesOn = true;
+                for (int l : piece.above) mTubes[tubeOf[slab.above][l]].bottom.goesOn = true;
+                Skeleton::Unresolved u{mPositions[slab.below], mPositions[slab.above], 0, 0, 0, 0};
+                for (int l : piece.below) ++(mLoops[slab.below][l].loop.hole() ? u.holesBelow : u.wallsBelow);
+                for (int l : piece.above) ++(mLoops[slab.above][l].loop.hole() ? u.holesAbove : u.wallsAbove);
+                mUnresolved.push_back(u);
+            }
+            mStats.unresolvedJunctions += joins ? 1 : 0;
+            mStats.unresolvedEvents += piece.kind == EventKind::Unresolved ? 1 : 0;
+            mStats.starts += piece.kind == EventKind::Start ? 1 : 0;
+            mStats.ends += piece.kind == EventKind::End ? 1 : 0;
+            mStats.rims += piece.kind == EventKind::Rim && !joins ? 1 : 0;
+        }
+    }
+    mStats.ends += static_cast<int>(mLoops[last].size());
+    resolvePastTheBox(mGraph.afterLast, true);
+}
+
+void Reconstruction::markRim(int s, const std::vector<int>& loops, bool top,
+                             const std::vector<std::vector<int>>& tubeOf)
+{
+    // A wall and holes that begin or end together. A hole around the wall: the floor of a cavity
+    // that a post stands in (or its roof); the hole's region ends past the plane and the wall's
+    // goes on, the other way round from a pipe's rim. Holes inside the wall: a pipe's rim, the
+    // slab joining each hole's outside past the plane to the outside around the wall, though the
+    // field along a hole's axis may close over it (a lid). Either way the slab says so, and no
+    // end takes end contours that would part them: capped on their own, hole and wall made a
+    // sphere where the rim makes a handle (crops of the smoke: Euler characteristic 56 against 54
+    // in one, 100 against 92 in another whose last plane held a wall and five holes).
+    std::vector<int> walls, holes;
+    for (int l : loops) (mLoops[s][l].loop.hole() ? holes : walls).push_back(l);
+    if (walls.size() != 1 || holes.empty()) return;
+    const BoundaryLoop& wall = mLoops[s][walls[0]].loop;
+    if (wall.points.empty()) return;
+    const auto inWall = [&](int h) {
+        const BoundaryLoop& hole = mLoops[s][h].loop;
+        return !hole.points.empty() && encloses(wall, hole.points.front());
+    };
+    const bool aroundWall = holes.size() == 1 && encloses(mLoops[s][holes[0]].loop, wall.points.front());
+    const bool rim = !aroundWall && std::all_of(holes.begin(), holes.end(), inWall);
+    for (int l : loops) {
+        TubeEnd& end = top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom;
+        end.aroundWall = aroundWall;
+        end.rim = rim;
+    }
+}
+
+void Reconstruction::patchPastTheBox(SlabPiece& piece, bool top, const std::vector<std::vector<int>>& tubeOf)
+{
+    // Contours of the first or last plane that join past it, between it and the empty plane past
+    // the grid's box (a plane there stops up to a voxel short of the box): capped each on its own,
+    // they were separate objects (a crop of the smoke: two walls of its last plane, 100, joined
+    // at 101 around a handle, Euler characteristic 112 against 108). Their piece is meshed from
+    // its cells out to that empty plane, as a face the box cuts is (patchFace).
+    // A patch that finds a handle the labelling lacks is left out: past the plane, where no cut
+    // refines the labelling, the cells' count did not confirm one (a crop along y: Euler
+    // characteristic 2 against the isosurface's 6, 8 with the contours capped).
+    const int s = top ? mGraph.order.back() : mGraph.order.front();
+    std::optional<SlabPatch> surface = std::move(patchesOf(top ? s : -1, top ? -1 : s, {&piece}).front());
+    if (!surface || surface->euler != piece.euler()) return;
+    const int id = addPatch(top ? s : -1, top ? -1 : s, piece, std::move(*surface));
+    for (int l : top ? piece.below : piece.above)
+        (top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom).patch = id;
+}
+
+bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const
+{
+    junction.kind = piece.kind;
+    if (piece.kind == EventKind::Rim) {
+        // A wall with several holes, in one plane: its polygon is split into one arc per hole,
+        // closed through a hub in the plane, and each arc tiled to its hole: a face with holes.
+        junction.top = piece.above.empty();
+        const int s = junction.top ? slab.below : slab.above;
+        for (int l : junction.top ? piece.below : piece.above)
+            (mLoops[s][l].loop.hole() ? junction.many.emplace_back(s, l) : junction.single = {s, l});
+        return splitJunction(junction);
+    }
+    // A fork's one side lies below, a merge's above: one contour, or a ring (a wall and its hole).
+    const bool fork = piece.kind == EventKind::Fork;
+    const int s1 = fork ? slab.below : slab.above, s2 = fork ? slab.above : slab.below;
+    const std::vector<int>& ones = fork ? piece.below : piece.above;
+    for (int l : ones) (ones.size() == 2 && mLoops[s1][l].loop.hole() ? junction.inner : junction.single) = {s1, l};
+    for (int l : fork ? piece.above : piece.below) junction.many.push_back({s2, l});
+    return splitJunction(junction);
+}
+
+std::optional<SlabPatch> Reconstruction::strayingBandPatch(const ContourGraph::Slab& slab, const SlabPiece& piece) const
+{
+    // A band whose slab the graph could not halve down to what its shape change asks (a plane
+    // between showed other pieces elsewhere in the slab: graph.h) can fan a contour's arm that
+    // ends inside the slab across the air beside it (the smoke at iso 0.1: a kidney-shaped section
+    // a voxel below a blob, fanned from the blob across 13 voxels, 2.23 voxels off at the top
+    // level). Where its cells close as an annulus and lie farther than kBandStray from the band's
+    // straight triangles, they mesh it instead, at every level; as for a fork or merge, only in a
+    // slab thicker than the events' thickness. The profiles measure across the plane, which
+    // overstates how far a thinner slab's band strays: three random capsule trees, sliced along x,
+    // had a band patched in a slab a quarter or half a voxel thick where an arm grows 16 to 30
+    // pixels, and it left needles at three more levels (up to 986).
+    if (mPositions[slab.above] - mPositions[slab.below] <= kEventThickness) return std::nullopt;
+    const PlaneLoops lower = planeLoops(slab.below), upper = planeLoops(slab.above);
+    const int a = piece.below[0], b = piece.above[0];
+    if (shapeChange(lower, a, upper, b) <= kShapeChange) return std::nullopt;
+    std::optional<SlabPatch> patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+    if (!patch || patch->euler != piece.euler() ||
+        patchStrayFromBand(*patch, mPlan.axis, lower, a, upper, b) <= kBandStray)
+        return std::nullopt;
+    return patch;
+}
+
+void Reconstruction::splitBand(int below, int lowerLoop, int above, int upperLoop, BandMiddle& middle,
+                               std::vector<int>& steps)
+{
+    // The graph halves a slab for its bands' shape only where a plane between agrees with the
+    // slab's pieces as a whole (graph.h). On a noisy fog most do not (some other piece of the slab
+    // shows a speck or a contact there), and a slice spacing of 2 voxels misses what lies between
+    // the planes: a crop of Gaffer's smoke has a ledge in one voxel plane between two slices, 2.7
+    // voxels past the band. The band alone takes the middle plane's loop where that loop joins it
+    // one to one through either half and lies farther from the band's straight triangles than
+    // kBandStray pixels.
+    if (mPositions[above] - mPositions[below] <= kEventThickness / 4.0) return;
+    const PlaneLoops lower = planeLoops(below), upper = planeLoops(above);
+    if (!middle.traced) {
+        SliceCounts dropped;
+        middle.w = 0.5 * (mPositions[below] + mPositions[above]);
+        middle.loops = traceContours(middle.w, dropped);
+        const PlaneLoops between = planeLoopsOf(middle.loops, middle.w);
+        middle.lowerHalf = connectThroughSlab(mVolume, mPlan, lower, between);
+        middle.upperHalf = connectThroughSlab(mVolume, mPlan, between, upper);
+        middle.traced = true;
+    }
+    // The piece that holds loop `l` of the lower (`onLower`) or upper plane.
+    const auto pieceOf = [](const std::vector<SlabPiece>& pieces, int l, bool onLower) -> const SlabPiece* {
+        for (const SlabPiece& p : pieces) {
+            const std::vector<int>& loops = onLower ? p.below : p.above;
+            if (std::find(loops.begin(), loops.end(), l) != loops.end()) return &p;
+        }
+        return nullptr;
+    };
+    const SlabPiece* first = pieceOf(middle.lowerHalf, lowerLoop, true);
+    const SlabPiece* second = pieceOf(middle.upperHalf, upperLoop, false);
+    if (!first || !second || first->kind != EventKind::Band || second->kind != EventKind::Band ||
+        second->below != first->above ||
+        strayFromBand(lower, lowerLoop, planeLoopsOf(middle.loops, middle.w), first->above[0], upper, upperLoop) <=
+            kBandStray)
+        return;
+    // A plane of that loop alone: the slab's other pieces do not pass through it.
+    mPositions.push_back(middle.w);
+    mLoops.push_back({middle.loops[static_cast<std::size_t>(first->above[0])]});
+    const int plane = static_cast<int>(mLoops.size()) - 1;
+    BandMiddle lowerMiddle, upperMiddle;
+    splitBand(below, lowerLoop, plane, 0, lowerMiddle, steps);
+    steps.push_back(plane);
+    splitBand(plane, 0, above, upperLoop, upperMiddle, steps);
+}
+
+bool Reconstruction::makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork)
+{
+    // Where the slab's labelling joins several walls below to several above in one genus-0 piece
+    // and bisection found no plane between their saddles (fog voxels meeting along edges within
+    // one voxel slab), a contour around them all in the middle plane passes the piece's topology
+    // on: n walls merge into it, and it forks into m. Its geometry is the walls' union, so the
+    // crotches lie within the slab; holes have no construction here.
+    constexpr double kMaxGrowth = 2.0; // pixels: walls farther apart than twice this make no waist
+    if (piece.below.size() < 2 || piece.above.size() < 2) return false;
+    std::vector<const std::vector<glm::dvec2>*> walls;
+    for (const auto& [s, loops] : {std::pair{slab.below, &piece.below}, std::pair{slab.above, &piece.above}})
+        for (int l : *loops) {
+            if (mLoops[s][l].loop.hole()) return false;
+            walls.push_back(&mLoops[s][l].view.polygon);
+        }
+    SliceLoop waist;
+    waist.loop = waistAround(walls, kMaxGrowth);
+    if (waist.loop.corners.empty()) return false;
+    waist.view = viewFrom(waist.loop, centralPoint(waist.loop));
+    if (waist.view.winding != 1) return false;
+    waist.profile = radialProfile(waist.view, profileDirections());
+    waist.onPolygon = true;
+    const int plane = static_cast<int>(mLoops.size());
+    mPositions.push_back(0.5 * (mPositions[slab.below] + mPositions[slab.above]));
+    mLoops.push_back({std::move(waist)});
+    if (makeJunction({slab.below, plane, {}}, {piece.below, {0}, EventKind::Merge}, merge) &&
+        makeJunction({plane, slab.above, {}}, {{0}, piece.above, EventKind::Fork}, fork))
+        return true;
+    mPositions.pop_back();
+    mLoops.pop_back();
+    return false;
+}
+
+std::vector<std::optional<SlabPatch>> Reconstruction::patchesOf(int below, int above,
+                                                                const std::vector<const SlabPiece*>& pieces) const
+{
+    // Unlike a waist, the cells give holes and handles too; but their triangles are as fine as
+    // the voxels at every level, so the constructions from contours go first.
+    if (pieces.empty()) return {};
+    const PlaneLoops lower = below >= 0 ? planeLoops(below) : pastTheBox(mVolume, mPlan, false);
+    const PlaneLoops upper = above >= 0 ? planeLoops(above) : pastTheBox(mVolume, mPlan, true);
+    return patchPieces(mVolume, mPlan, lower, upper, pieces);
+}
+
+PlaneLoops Reconstruction::planeLoops(int s) const
+{
+    return planeLoopsOf(mLoops[static_cast<std::size_t>(s)], mPositions[static_cast<std::size_t>(s)]);
+}
+
+PlaneLoops Reconstruction::planeLoopsOf(const std::vector<SliceLoop>& loops, double w)
+{
+    PlaneLoops plane;
+    plane.w = w;
+    for (const SliceLoop& l : loops) {
+        plane.loops.push_back(&l.loop);
+        plane.centers.push_back(l.view.center);
+        plane.profiles.push_back(&l.profile);
+    }
+    return plane;
+}
+
+void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed)
+{
+    // Planes added inside a range between voxel planes (for its events' crotches) see the
+    // interpolated field's contacts there, and a handle the cells count can span them, so that no
+    // slab's patch finds it (the smoke's crops: nine of 75 runs a handle short, each within one
+    // voxel); or a patch between a voxel plane and an added one, where no rule decides a saddle,
+    // finds a handle the cells do not count (one crop: Euler characteristic 132 against 134).
+    // Where the pieces of the whole range, patched from its cells, add up to the cells' count,
+    // they replace its slabs; the planes between are then no part of the graph.
+    std::vector<EulerDifference> ranges = missed;
+    std::size_t from = 0; // the slab after the last voxel plane
+    for (std::size_t k = 1; k < mGraph.order.size(); ++k) {
+        const double w = mPositions[mGraph.order[k]];
+        if (w != std::floor(w)) continue;
+        const double wFrom = mPositions[mGraph.order[from]];
+        const bool missing =
+            std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) { return d.wBelow == wFrom; });
+        const auto contradicts = [&](const ContourGraph::Slab& slab) { return unresolvedPatchFindsHandles(slab); };
+        const auto slab = mGraph.slabs.begin() + static_cast<std::ptrdiff_t>(from);
+        if (k - from >= 2 && wFrom == std::floor(wFrom) && !missing &&
+            std::any_of(slab, slab + static_cast<std::ptrdiff_t>(k - from), contradicts))
+            ranges.push_back({wFrom, w, 0});
+        from = k;
+    }
+    for (const EulerDifference& d : ranges) {
+        if (!std::isfinite(d.wBelow) || !std::isfinite(d.wAbove)) continue;
+        const auto inRange = [&](const ContourGraph::Slab& slab) {
+            return mPositions[slab.below] >= d.wBelow && mPositions[slab.above] <= d.wAbove;
+        };
+        std::vector<ContourGraph::Slab>& slabs = mGraph.slabs;
+        const auto first = std::find_if(slabs.begin(), slabs.end(), inRange);
+        const auto end = std::find_if_not(first, slabs.end(), inRange);
+        if (end - first < 2) continue; // one slab's pieces are patched as they are
+        ContourGraph::Slab whole{first->below, std::prev(end)->above, {}};
+        whole.pieces = connectThroughSlab(mVolume, mPlan, planeLoops(whole.below), planeLoops(whole.above));
+        std::vector<const SlabPiece*> pieces;
+        for (const SlabPiece& piece : whole.pieces) pieces.push_back(&piece);
+        long long now = 0, patched = 0;
+        for (auto slab = first; slab != end; ++slab)
+            for (const SlabPiece& piece : slab->pieces) now += piece.euler();
+        bool closes = true; // else a piece the cells do not close: the range stays as it was
+        for (const std::optional<SlabPatch>& patch : patchesOf(whole.below, whole.above, pieces)) {
+            closes = closes && patch.has_value();
+            patched += patch ? patch->euler : 0;
+        }
+        if (!closes || patched != now + d.difference) continue;
+        std::vector<int>& order = mGraph.order;
+        order.erase(std::find(order.begin(), order.end(), whole.below) + 1,
+                    std::find(order.begin(), order.end(), whole.above));
+        slabs.insert(slabs.erase(first, end), std::move(whole));
+    }
+}
+
+bool Reconstruction::unresolvedPatchFindsHandles(const ContourGraph::Slab& slab) const
+{
+    std::vector<const SlabPiece*> unresolved;
+    for (const SlabPiece& piece : slab.pieces)
+        if (piece.kind == EventKind::Unresolved) unresolved.push_back(&piece);
+    const std::vector<std::optional<SlabPatch>> patches = patchesOf(slab.below, slab.above, unresolved);
+    for (std::size_t k = 0; k < patches.size(); ++k)
+        if (patches[k] && patches[k]->euler != unresolved[k]->euler()) return true;
+    return false;
+}
+
+int Reconstruction::addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface)
+{
+    mPatches.push_back({below, above, std::move(surface)});
+    ++mStats.patches;
+    mStats.patchEuler += mPatches.back().surface.euler;
+    const int before = piece.euler();
+    piece.handles = (before - mPatches.back().surface.euler) / 2;
+    mStats.eventEuler += piece.euler() - before;
+    return static_cast<int>(mPatches.size()) - 1;
+}
+
+bool Reconstruction::splitJunction(Junction& junction) const
+{
+    std::vector<const std::vector<glm::dvec2>*> partners;
+    for (const auto& [s, l] : junction.many) partners.push_back(&mLoops[s][l].view.polygon);
+    const std::vector<glm::dvec2>& polygon = mLoops[junction.single.first][junction.single.second].view.polygon;
+    const std::vector<glm::dvec2>* inner =
+        junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second].view.polygon : nullptr;
+    const double w = mPositions[junction.single.first], wPartners = mPositions[junction.many.front().first];
+    const SlicePlane plane(mVolume, mPlan, w);
+    // A ring whose hole the partners do not share out (splitIntoArcs) is cut open where the
+    // partners' plane is outside, the gap its material closes, and split as one contour.
+    std::vector<glm::dvec2> keyholed;
+    const auto blocked = [&](const glm::dvec2& point) { return plane.sampleAt(point, wPartners) < 0.0; };
+    if (!splitIntoArcs(polygon, inner, partners, junction, blocked)) {
+        if (!inner) return false;
+        if (chooseKeyhole(polygon, *inner, blocked, junction.keyhole))
+            keyholed = keyholePolygon(polygon, *inner, junction.keyhole);
+        if (keyholed.empty() || !splitIntoArcs(keyholed, nullptr, partners, junction)) {
+            // No keyhole splits: the hole's cuts nearest the wall's, whatever their chords cross.
+            static_cast<JunctionArcs&>(junction) = JunctionArcs{};
+            junction.keyhole = Keyhole{};
+            keyholed.clear();
+            if (!splitIntoArcs(polygon, inner, partners, junction)) return false;
+        }
+    }
+    const Keyhole& keyhole = junction.keyhole;
+    const std::vector<glm::dvec2>& single = keyhole.open() ? keyholed : polygon;
+    const bool ring = inner && !keyhole.open(); // split into sectors
+    auto addNode = [&](const glm::dvec2& point, double wNode) {
+        junction.nodePoints.push_back(point);
+        junction.nodeIndex.push_back(planeToIndex(mPlan.axis, point, wNode));
+    };
+    auto addContourNode = [&](int member, int point) {
+        addNode((member == 0 ? polygon : *inner)[static_cast<std::size_t>(point)], w);
+        junction.nodeOn.emplace_back(member, point);
+    };
+    for (int cut : junction.cuts) {
+        const auto [member, point] = keyhole.open() ? keyhole.at(cut) : std::pair{0, cut};
+        addContourNode(member, point);
+    }
+    for (int cut : junction.innerCuts) addContourNode(1, cut);
+    // The slit's four ends: its crossings join them.
+    if (keyhole.open())
+        for (int q : {keyhole.wallSize - 1, keyhole.wallSize, keyhole.size() - 1, 0}) {
+            const auto [member, point] = keyhole.at(q);
+            if (junction.nodeAt(member, point) < 0) addContourNode(member, point);
+        }
+    // Hub and chord middles lie just short of the saddle: inside across a neck or a ring's wall,
+    // outside across a gap that closes. Toward the partners' plane the field changes sides at
+    // the saddle itself, so they move there (and stay put if they do not get there).
+    auto addSaddleNode = [&](const glm::dvec2& point) {
+        double wSaddle = w;
+        const double side = plane.sampleAt(point, w) < 0.0 ? 1.0 : -1.0;
+        findApex(plane, point, wPartners > w ? 1.0 : -1.0, std::abs(wPartners - w), wSaddle, side);
+        addNode(point, wSaddle);
+    };
+    const std::size_t n = junction.cuts.size();
+    // A ring's chord k + 1 runs from the wall's cut k + 1 to the hole's; a gap's (or a bud's) from
+    // cut a + 1 back to cut a.
+    auto addChord = [&](std::size_t a) {
+        const std::size_t b = (a + 1) % n;
+        junction.chordArcs.push_back(static_cast<int>(a));
+        if (ring) {
+            addSaddleNode(0.5 * (single[junction.cuts[b]] + (*inner)[junction.innerCuts[b]]));
+            return;
+        }
+        const bool reversed =
+            mLoops[junction.many[junction.owner[a]].first][junction.many[junction.owner[a]].second].loop.hole() !=
+                mLoops[junction.single.first][junction.single.second].loop.hole() &&
+            junction.kind != EventKind::Rim;
+        addSaddleNode(gapMiddle(single, junction.cuts[a], junction.cuts[b], reversed ? -1.0 : 1.0));
+    };
+    if (junction.hubbed && !ring) {
+        // The buds' chords, then the hub amid the cuts where two bodies' arcs meet (every cut
+        // where there are no buds).
+        for (int a : junction.buds) addChord(static_cast<std::size_t>(a));
+        const auto bud = [&](std::size_t a) {
+            return std::find(junction.buds.begin(), junction.buds.end(), static_cast<int>(a)) != junction.buds.end();
+        };
+        glm::dvec2 hub(0.0);
+        int meets = 0;
+        for (std::size_t a = 0; a < n; ++a)
+            if (!bud(a) && !bud((a + n - 1) % n)) {
+                hub += single[junction.cuts[a]];
+                ++meets;
+            }
+        addSaddleNode(hub / static_cast<double>(meets));
+        composeParts(junction);
+        return true;
+    }
+    junction.hubbed = false;
+    std::vector<int> arcs(junction.many.size(), 0);
+    for (int owner : junction.owner) ++arcs[owner];
+    for (std::size_t a = 0; a < n; ++a)
+        if (ring || arcs[junction.owner[a]] == 1) addChord(a);
+    composeParts(junction);
+    return true;
+}
+
+int Reconstruction::Junction::nodeAt(int member, int point) const
+{
+    const auto at = std::find(nodeOn.begin(), nodeOn.end(), std::pair{member, point});
+    return at == nodeOn.end() ? -1 : static_cast<int>(at - nodeOn.begin());
+}
+
+void Reconstruction::composeParts(Junction& junction) const
+{
+    using Part = Junction::Part;
+    const SliceLoop& single = mLoops[junction.single.first][junction.single.second];
+    const SliceLoop* inner = junction.inner.first >= 0 ? &mLoops[junction.inner.first][junction.inner.second] : nullptr;
+    const Keyhole& keyhole = junction.keyhole;
+    const bool ring = inner && !keyhole.open();
+    const std::size_t n = junction.cuts.size();
+    const int firstMiddle = static_cast<int>(junction.nodeOn.size());
+    const int hub = firstMiddle + static_cast<int>(junction.chordArcs.size()); // if hubbed
+    auto middleOf = [&](std::size_t a) { // the node of the chord closing arc a, or -1
+        const auto at = std::find(junction.chordArcs.begin(), junction.chordArcs.end(), static_cast<int>(a));
+        return at == junction.chordArcs.end() ? -1 : firstMiddle + static_cast<int>(at - junction.chordArcs.begin());
+    };
+    // The corners from point `from` to point `to` of the single contour (member 0: the
+    // keyhole's composite where it is cut open) or its hole (1), stepping `step`.
+    auto appendArc = [&](Part& part, int member, int from, int to, int step) {
+        const int size = static_cast<int>(member == 1      ? inner->view.polygon.size()
+                                          : keyhole.open() ? static_cast<std::size_t>(keyhole.size())
+                                                           : single.view.polygon.size());
+        for (int q = from;; q = (q + step + size) % size) {
+            const auto [m, p] = member == 0 && keyhole.open() ? keyhole.at(q) : std::pair{member, q};
+            part.corners.push_back({m, p, junction.nodeAt(m, p)});
+            if (q == to) break;
+        }
+    };
+    auto appendNode = [](Part& part, int node) {
+        if (node >= 0) part.corners.push_back({-1, -1, node});
+    };
+    const bool singleHole = single.loop.hole(), rim = junction.kind == EventKind::Rim;
+    for (std::size_t k = 0; k < junction.many.size(); ++k) {
+        // The corners in the order the minimum-area tiling took them (assemble): partner k's arcs
+        // in walk order, each closed through the hub, by its chord, or for a ring's sector the
+        // wall's arc, the chord at its end, the hole's arc back and the chord at its start.
+        Part part;
+        for (std::size_t a = 0; a < n; ++a) {
+            if (junction.owner[a] != static_cast<int>(k)) continue;
+            const std::size_t b = (a + 1) % n;
+            appendArc(part, 0, junction.cuts[a], junction.cuts[b], 1);
+            if (ring) {
+                appendNode(part, middleOf(a));
+                appendArc(part, 1, junction.innerCuts[b], junction.innerCuts[a], -1);
+                appendNode(part, middleOf((a + n - 1) % n));
+            } else {
+                const int own = middleOf(a);
+                if (own >= 0) {
+                    appendNode(part, own); // its own chord, back to its first cut
+                    continue;
+                }
+                // The several's arc (or a body's): across the chords of the arcs up to its next
+                // one, through the cuts between them; up to another body's arc, to the hub.
+                for (std::size_t c = b; junction.owner[c] != static_cast<int>(k); c = (c + 1) % n) {
+                    const std::size_t next = (c + 1) % n;
+                    if (middleOf(c) < 0) {
+                        appendNode(part, hub);
+                        break;
+                    }
+                    appendNode(part, middleOf(c));
+                    if (junction.owner[next] != static_cast<int>(k))
+                        appendArc(part, 0, junction.cuts[next], junction.cuts[next], 1);
+                }
+            }
+        }
+        const SliceLoop& partner = mLoops[junction.many[k].first][junction.many[k].second];
+        if (partner.loop.hole() != singleHole && !rim) std::reverse(part.corners.begin(), part.corners.end());
+        for (const Part::Corner& c : part.corners)
+            part.polygon.push_back(c.member < 0 ? junction.nodePoints[c.node]
+                                                : (c.member == 0 ? single : *inner).view.polygon[c.point]);
+        junction.parts.push_back(std::move(part));
+    }
+}
+
+int Reconstruction::addJunction(Junction&& junction)
+{
+    mStats.forks += junction.kind == EventKind::Fork ? 1 : 0;
+    mStats.merges += junction.kind == EventKind::Merge ? 1 : 0;
+    mStats.rims += junction.kind == EventKind::Rim ? 1 : 0;
+    mStats.keyholes += junction.keyhole.open() ? 1 : 0;
+    // A junction of c contours is a sphere with c holes less one disc (Euler 2 - c): c - 2
+    // saddles, so that caps - saddles stays the mesh's Euler characteristic.
+    const int contours = 1 + (junction.inner.first >= 0 ? 1 : 0) + static_cast<int>(junction.many.size());
+    mStats.saddles += contours - 2;
+    mJunctions.push_back(std::move(junction));
+    return static_cast<int>(mJunctions.size()) - 1;
 }
 
 } // namespace pipetile

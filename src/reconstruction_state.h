@@ -1,7 +1,7 @@
 // pipetile — the state a Reconstruction keeps between its stages: the slices' loops, the tubes
 // and the junctions. Private to the library (not installed): multires.h only declares these types,
-// so that embedding programs neither see nor depend on them; src/multires.cpp and src/caps.cpp
-// (the closeEnds stage) use them.
+// so that embedding programs neither see nor depend on them; src/multires.cpp, src/graph.cpp (the
+// correspond and resolveEvents stages) and src/caps.cpp (the closeEnds stage) use them.
 #pragma once
 
 #include <pipetile/contour.h>

@@ -14,6 +14,9 @@
 // skips the labelling. Events are then refined by adding planes at dyadic positions inside the
 // slab (bisect), so that a fork's saddle lies within a fraction of a voxel of a plane.
 //
+// graph.cpp also defines the reconstruction's correspond and resolveEvents stages (multires.h),
+// which build its skeleton on this graph: junctions, waists, patches, a band's own planes.
+//
 // Nothing here throws, besides std::bad_alloc and what buildContourGraph's callbacks throw (passed
 // through). Loops, centres and profiles are in the planes' pixel units; w is index space.
 #pragma once

@@ -247,6 +247,7 @@ private:
     /// The finest level's ray count, at most 256 (the cost of comparing profiles grows with it).
     int profileDirections() const;
     void traceSlices();
+    // The correspond and resolveEvents stages and their helpers, down to composeParts: graph.cpp.
     void correspond();
     void resolveEvents();
     /// Marks the ends, at plane s (`top`: the tubes' top ends), of a Rim piece's loops there (a
