@@ -1396,6 +1396,21 @@ TEST(Graph, AnEndsSpikeOnePixelWideIsReached)
     expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
 }
 
+// A crop of the smoke at iso 0.2 (sliced along z, its default): at the crop's last voxel plane,
+// z = 71, a contour of 235 pixels has an arm that ends within a quarter voxel past it, while the
+// rest reaches on. The end contour there, of 56 pixels, could not be brought into register (3.7
+// pixels apart on average), and its band fanned the arm's crossings across air to one point 12
+// voxels away: 2.30 voxels off at the top level. An end contour still out of register once its
+// step is a quarter voxel or less is no end of the contour, which is capped instead.
+TEST(Graph, AnEndContourOutOfRegisterIsNoEnd)
+{
+    const Volume volume = smokeCrop({43, 98, 25}, {82, 120, 71}, 0.2);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+}
+
 // A crop of the smoke at iso 0.1, sliced along y: at y = 153 a contour forks into six partners a
 // voxel above, and the plane between showed other pieces than the voxel planes' cells, so the
 // slab stayed a voxel thick. An arm of the contour that ends inside the slab went to one part, and
