@@ -265,15 +265,17 @@ private:
     /// loops make no waist or either junction does not split.
     bool makeWaist(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& merge, Junction& fork);
     /// The patch of a band piece whose slab stayed thicker than the events' thickness though its
-    /// shape change asks for less, where its cells close as an annulus and stray from the band's
-    /// straight triangles; none otherwise.
-    std::optional<SlabPatch> strayingBandPatch(const ContourGraph::Slab& slab, const SlabPiece& piece) const;
+    /// shape change asks for less (or whatever its shape change, with `anyShape`), where its cells
+    /// close as an annulus and stray from the band's straight triangles; none otherwise.
+    std::optional<SlabPatch> strayingBandPatch(const ContourGraph::Slab& slab, const SlabPiece& piece,
+                                               bool anyShape) const;
     /// Planes for the band from loop `lowerLoop` of plane `below` to `upperLoop` of `above` alone,
     /// down to a quarter of the events' thickness: the middle plane's loop, where it joins the two
     /// one to one through either half and strays from the band's straight triangles, each added
     /// as a plane holding that loop alone. `middle` is the slab's middle plane, traced on first
-    /// use and shared by the slab's bands. Appends the planes, in order of w, to `steps`.
-    void splitBand(int below, int lowerLoop, int above, int upperLoop, BandMiddle& middle, std::vector<int>& steps);
+    /// use and shared by the slab's bands. Appends the planes, in order of w, to `steps`. False
+    /// where the middle plane's loops join the band otherwise than one to one (no plane added).
+    bool splitBand(int below, int lowerLoop, int above, int upperLoop, BandMiddle& middle, std::vector<int>& steps);
     /// The graph's view of `loops`, a plane at w.
     static PlaneLoops planeLoopsOf(const std::vector<SliceLoop>& loops, double w);
     /// The pieces of the slab between planes `below` and `above` meshed from its cells (graph.h,
