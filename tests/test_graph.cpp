@@ -1358,12 +1358,12 @@ void expectOnTheIsosurface(const Volume& volume, const TriangleMesh& mesh, doubl
     EXPECT_LE(v.symmetric.max / v.voxel, voxels);
 }
 
-// Sliced along x, the top level has the isosurface's Euler characteristic and components, and
-// lies within a voxel of it.
-void expectTopLevelOfTheIsosurfaceAlongX(const Volume& volume)
+// Sliced along `axis`, the top level has the isosurface's Euler characteristic and components,
+// and lies within a voxel of it.
+void expectTopLevelOnTheIsosurface(const Volume& volume, Axis axis = Axis::X)
 {
     MeshOptions options;
-    options.slicing.axis = Axis::X;
+    options.slicing.axis = axis;
     const Reconstruction reconstruction(volume, options);
     expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
 }
@@ -1419,11 +1419,7 @@ TEST(Graph, AnEndsSpikeOnePixelWideIsReached)
 // step is a quarter voxel or less is no end of the contour, which is capped instead.
 TEST(Graph, AnEndContourOutOfRegisterIsNoEnd)
 {
-    const Volume volume = smokeCrop({43, 98, 25}, {82, 120, 71}, 0.2);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    const Reconstruction reconstruction(volume, options);
-    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+    expectTopLevelOnTheIsosurface(smokeCrop({43, 98, 25}, {82, 120, 71}, 0.2), Axis::Z);
 }
 
 // A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
@@ -1472,7 +1468,7 @@ TEST(Graph, AJunctionInASlabTooThickForItIsMeshedFromItsCells)
 // volumeToMesh closes it, and the top level is within a voxel.
 TEST(Graph, ACutFaceIsMeshedFromItsCells)
 {
-    expectTopLevelOfTheIsosurfaceAlongX(smokeCrop({57, 32, 59}, {95, 63, 92}, 0.2));
+    expectTopLevelOnTheIsosurface(smokeCrop({57, 32, 59}, {95, 63, 92}, 0.2));
 }
 
 // A capsule along z with a ledge in one voxel plane between two slices (the slices lie 2 voxels
@@ -1509,7 +1505,7 @@ TEST(Graph, ABandTakesTheMiddlePlaneWhereItsLoopStrays)
 // between two slices near x = 55, 1.05 voxels past the band between them at the top level.
 TEST(Graph, ABulgeBetweenSlicesOfTheSmokeTakesAPlane)
 {
-    expectTopLevelOfTheIsosurfaceAlongX(smokeCrop({52, 110, 27}, {97, 140, 54}, 0.2));
+    expectTopLevelOnTheIsosurface(smokeCrop({52, 110, 27}, {97, 140, 54}, 0.2));
 }
 
 // AHoleOnOnePartnersSideIsNoGapBetweenThePartners in a crop of the smoke at iso 0.2, sliced along z: at z = 40.5 a lobe forks off a
@@ -1595,7 +1591,7 @@ TEST(Graph, ADenseTreesArmSeenEndOnIsMeshedWithinAVoxel)
                                        {{56, 56, 41.7}, {46.1, 48.3, 57.5}, 5.25},
                                        {{46.1, 48.3, 57.5}, {38.1, 47.5, 71.2}, 3.94},
                                        {{46.1, 48.3, 57.5}, {37.5, 34.6, 68.5}, 3.94}};
-    expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(tree, "dense tree"));
+    expectTopLevelOnTheIsosurface(capsuleUnion(tree, "dense tree"));
 }
 
 TEST(Graph, TheCellsPlaceTheHandlesTheSlabsMiss)
@@ -1658,7 +1654,7 @@ TEST(Graph, TreesWhoseBranchesFuseIntoBlobsAreWithinAVoxelAtTheTopLevel)
                                                       {{57.37, 46.3, 60.95}, {51.57, 29.42, 71.76}, 3.9375}}};
     for (std::size_t k = 0; k < trees.size(); ++k) {
         SCOPED_TRACE("seed " + std::to_string(k + 3));
-        expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(trees[k], "fused capsule tree"));
+        expectTopLevelOnTheIsosurface(capsuleUnion(trees[k], "fused capsule tree"));
     }
 }
 
@@ -1694,7 +1690,7 @@ TEST(Graph, CentresStandWhereAFusedSectionChangesBetweenClosePlanes)
     const int seeds[] = {7, 10};
     for (std::size_t k = 0; k < trees.size(); ++k) {
         SCOPED_TRACE("seed " + std::to_string(seeds[k]));
-        expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(trees[k], "fused capsule tree"));
+        expectTopLevelOnTheIsosurface(capsuleUnion(trees[k], "fused capsule tree"));
     }
 }
 
@@ -1719,7 +1715,7 @@ TEST(Graph, AWallARayGrazesIsTiledAlongIt)
                                        {{57.3730, 46.3040, 60.9513}, {72.8489, 50.1234, 68.7276}, 3.9375},
                                        {{57.3730, 46.3040, 60.9513}, {56.6242, 46.7363, 77.7878}, 3.9375},
                                        {{57.3730, 46.3040, 60.9513}, {51.5727, 29.4191, 71.7611}, 3.9375}};
-    expectTopLevelOfTheIsosurfaceAlongX(capsuleUnion(tree, "grazed capsule tree"));
+    expectTopLevelOnTheIsosurface(capsuleUnion(tree, "grazed capsule tree"));
 }
 
 namespace {
