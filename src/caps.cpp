@@ -421,16 +421,19 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
         onGraph = tube.members[top ? tube.members.size() - 1 - k : k];
         if (std::find(mGraph.order.begin(), mGraph.order.end(), onGraph.first) != mGraph.order.end()) break;
     }
+    const auto apart = [&](const SliceLoop& end) {
+        return misregistration(member.view, member.profile, end.view, end.profile);
+    };
     std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph);
-    while (endLoop && step > 0.25 &&
-           misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister) {
+    double endApart = endLoop ? apart(*endLoop) : 0.0;
+    while (endLoop && step > 0.25 && endApart > kOutOfRegister) {
         std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step, onGraph);
         if (!closer) break;
         endLoop = std::move(closer);
+        endApart = apart(*endLoop);
         step *= 0.5;
     }
-    if (!endLoop || misregistration(member.view, member.profile, endLoop->view, endLoop->profile) > kOutOfRegister)
-        return false;
+    if (!endLoop || endApart > kOutOfRegister) return false;
     const double wEnd = plane.w() + direction * step;
     const glm::dvec2 center = endLoop->view.center;
     appendEndContour(tube, top, wEnd, std::move(*endLoop)); // `member` dangles from here on
