@@ -21,6 +21,7 @@
 #include <numeric>
 #include <optional>
 #include <tuple>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -82,10 +83,39 @@ struct Labels {
     }
 };
 
+// Whether every hole of `plane` lies inside an outer loop of `other` whose cracks it never
+// touches. Then the hole's air meets no outside air of the other plane's there, in the same pixel
+// or the next one (through a side saddle): a path between their pixel centres, at most a pixel
+// long, would cross both boundaries, each at least half a pixel from a centre, at one point,
+// which lies on the corner lattice. Else a wall a pixel thin may have a window between the planes
+// that neither shows (a crop of the smoke lacked a handle: its slab was taken for two bands).
+bool holesSealed(const PlaneLoops& plane, const PlaneLoops& other)
+{
+    for (const BoundaryLoop* hole : plane.loops) {
+        if (!hole->hole()) continue;
+        const PixelBox box = boxOf(*hole);
+        const glm::dvec2 corner = glm::dvec2(hole->corners.front()) - 0.5; // as contour.cpp's cornerPoint
+        const auto seals = [&](const BoundaryLoop* wall) {
+            const PixelBox around = boxOf(*wall);
+            if (wall->hole() || !around.overlaps(box) || !encloses(*wall, corner)) return false;
+            const auto key = [](const glm::ivec2& c) {
+                return std::uint64_t(std::uint32_t(c.x)) << 32 | std::uint32_t(c.y);
+            };
+            std::unordered_set<std::uint64_t> corners;
+            for (const glm::ivec2& c : wall->corners) corners.insert(key(c));
+            return std::none_of(hole->corners.begin(), hole->corners.end(),
+                                [&](const glm::ivec2& c) { return corners.count(key(c)) != 0; });
+        };
+        if (std::none_of(other.loops.begin(), other.loops.end(), seals)) return false;
+    }
+    return true;
+}
+
 // A loop of each plane overlapping exactly one loop of the same kind on the other plane, both
-// ways: then every piece is a band, and the slab needs no labelling. Overlap is a bounding-box
-// test followed by one central point inside the other loop; boxes a pixel apart count as
-// overlapping, as voxels touching along an edge across the slab may join them.
+// ways, and each plane's holes sealed in the other's walls: then every piece is a band, and the
+// slab needs no labelling. Overlap is a bounding-box test followed by one central point inside
+// the other loop; boxes a pixel apart count as overlapping, as voxels touching along an edge
+// across the slab may join them.
 bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<SlabPiece>& pieces)
 {
     if (below.loops.size() != above.loops.size()) return false;
@@ -110,7 +140,7 @@ bool simpleBands(const PlaneLoops& below, const PlaneLoops& above, std::vector<S
         partnerOfAbove[partner] = static_cast<int>(i);
         pieces.push_back({{static_cast<int>(i)}, {partner}, EventKind::Band});
     }
-    return true;
+    return holesSealed(below, above) && holesSealed(above, below);
 }
 
 // A run of polygon points owned by one partner, cyclically: points start .. start + length - 1.

@@ -1162,6 +1162,19 @@ TEST(Graph, ASpeckNextToAMissedHandleIsFound)
     expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.2, sliced along x: between x = 67 and 68 a hollow arm's
+// lumen opens to the outside. At 67 a pocket of air at (y, z) = (23, 64), joined to the lumen by a
+// saddle, lies where at 68 a notch of the outside reaches in. Each plane shows a wall around a
+// hole, each paired one to one, so the slab was taken for two bands without a look at its voxels:
+// a handle short (Euler characteristic 2 against 0), and no patch could take it, as the slab's
+// labels tell the two bands' loops to one region. A hole that the other plane's wall does not
+// seal now sends the slab to the labelling (graph.cpp, holesSealed).
+TEST(Graph, ALumenOpeningBetweenTwoPlanesIsAHandle)
+{
+    const Volume volume = smokeCrop({54, 3, 60}, {87, 25, 83}, 0.2);
+    expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
+}
+
 // A random crop of the smoke at iso 0.2, sliced along z: a void of one voxel at z = 36, which
 // volumeToMesh keeps apart from a void beside it below (it joins the dense pair across their
 // voxel edge). A plane added at 35.5 for another event shows that contact as a bridge, so the
