@@ -482,12 +482,13 @@ PlaneLoops pastTheBox(const Volume& volume, const SlicePlan& plan, bool after)
     return empty;
 }
 
-std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
-                                          const PlaneLoops& above)
+namespace {
+
+// connectThroughSlab from the slab's labelled voxels alone, with no look for simple bands.
+std::vector<SlabPiece> connectByLabels(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                       const PlaneLoops& above)
 {
     std::vector<SlabPiece> pieces;
-    if (simpleBands(below, above, pieces)) return pieces;
-    pieces.clear();
     if (below.loops.empty() && above.loops.empty()) return pieces;
     const SlabLayers layers(volume, plan, below.w, above.w);
     const int belowCount = static_cast<int>(below.loops.size());
@@ -530,6 +531,16 @@ std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan&
     }
     for (SlabPiece& piece : pieces) piece.kind = classify(piece, below, above);
     return pieces;
+}
+
+} // namespace
+
+std::vector<SlabPiece> connectThroughSlab(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
+                                          const PlaneLoops& above)
+{
+    std::vector<SlabPiece> pieces;
+    if (simpleBands(below, above, pieces)) return pieces;
+    return connectByLabels(volume, plan, below, above);
 }
 
 namespace {
@@ -939,6 +950,12 @@ public:
         return connectThroughSlab(mVolume, mPlan, mPlanes[below], mPlanes[above]);
     }
 
+    // The slab's pieces from its labelled voxels, even where it looks like simple bands.
+    std::vector<SlabPiece> label(int below, int above) const
+    {
+        return connectByLabels(mVolume, mPlan, mPlanes[below], mPlanes[above]);
+    }
+
     // Halves the slab while it is thicker than its pieces need; appends the slabs to `out` in
     // order of w.
     void refine(int below, int above, std::vector<SlabPiece> pieces, std::vector<ContourGraph::Slab>& out) const;
@@ -1083,7 +1100,7 @@ bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long l
         std::vector<ContourGraph::Slab> cut;
         long long euler = 0;
         for (auto it = finer.begin(); std::next(it) != finer.end(); ++it) {
-            cut.push_back({it->second, std::next(it)->second, connect(it->second, std::next(it)->second)});
+            cut.push_back({it->second, std::next(it)->second, label(it->second, std::next(it)->second)});
             euler += eulerOf(cut.back().pieces);
         }
         const LoopGroups now = loopGroups(cut, mPlanes);
@@ -1136,8 +1153,21 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
         if (range.difference == 0) continue;
         std::move(slabs.begin() + copied, slabs.begin() + range.first, std::back_inserter(out));
         copied = range.first;
-        const std::vector<ContourGraph::Slab> old(slabs.begin() + range.first, slabs.begin() + range.end);
-        if (!cutRange(old, range.target, out)) continue;
+        // Where the cells disagree, the range's slabs are labelled first: simpleBands pairs loops
+        // by overlap, and a loop that ends inside a slab two voxels thick beside one that starts
+        // there passes for a band (a crop of the smoke: a handle more, a component fewer).
+        std::vector<ContourGraph::Slab> labelled(slabs.begin() + range.first, slabs.begin() + range.end);
+        long long euler = 0;
+        for (ContourGraph::Slab& slab : labelled) {
+            slab.pieces = label(slab.below, slab.above);
+            euler += eulerOf(slab.pieces);
+        }
+        if (euler == range.target) {
+            for (ContourGraph::Slab& slab : labelled) refine(slab.below, slab.above, std::move(slab.pieces), out);
+        } else if (!cutRange(labelled, range.target, out)) {
+            std::move(labelled.begin(), labelled.end(), slabs.begin() + static_cast<std::ptrdiff_t>(range.first));
+            continue;
+        }
         copied = range.end;
         ++matches;
     }
