@@ -928,6 +928,44 @@ bool bandsOnly(const std::vector<SlabPiece>& pieces)
     return std::all_of(pieces.begin(), pieces.end(), [](const SlabPiece& p) { return p.kind == EventKind::Band; });
 }
 
+// How the pieces of `slabs` (in order of w) join loops: the group of each loop of the first and
+// the last plane (groups numbered in order of first appearance, bottom loops first), and how many
+// groups there are in all (a loop between them may join neither end: a component of its own).
+struct LoopGroups {
+    std::vector<int> ends;
+    std::size_t count = 0;
+    bool operator==(const LoopGroups& other) const { return ends == other.ends && count == other.count; }
+};
+
+LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::vector<PlaneLoops>& planes)
+{
+    std::map<std::pair<int, int>, std::int32_t> node; // (plane, loop)
+    const auto id = [&](int plane, int loop) {
+        return node.emplace(std::make_pair(plane, loop), static_cast<std::int32_t>(node.size())).first->second;
+    };
+    std::vector<int> stack{slabs.front().below};
+    for (const ContourGraph::Slab& slab : slabs) stack.push_back(slab.above);
+    for (int plane : stack)
+        for (std::size_t l = 0; l < planes[plane].loops.size(); ++l) id(plane, static_cast<int>(l));
+    Labels labels(node.size());
+    for (const ContourGraph::Slab& slab : slabs)
+        for (const SlabPiece& p : slab.pieces) {
+            const std::int32_t first = p.below.empty() ? id(slab.above, p.above[0]) : id(slab.below, p.below[0]);
+            for (int l : p.below) labels.join(first, id(slab.below, l));
+            for (int l : p.above) labels.join(first, id(slab.above, l));
+        }
+    LoopGroups groups;
+    std::map<std::int32_t, int> number;
+    for (int plane : {stack.front(), stack.back()})
+        for (std::size_t l = 0; l < planes[plane].loops.size(); ++l) {
+            const std::int32_t root = labels.find(node.at({plane, static_cast<int>(l)}));
+            groups.ends.push_back(number.emplace(root, static_cast<int>(number.size())).first->second);
+        }
+    for (const auto& [key, n] : node) number.emplace(labels.find(n), static_cast<int>(number.size()));
+    groups.count = number.size();
+    return groups;
+}
+
 // The stages of buildContourGraph: each slab halved while its events need it (refine), then the
 // ranges between voxel planes whose pieces do not add up to the cells' cut again (matchCells).
 class GraphBuilder {
@@ -1019,10 +1057,18 @@ void GraphBuilder::refine(int below, int above, std::vector<SlabPiece> pieces,
     // apart, a handle the isosurface does not have) keeps the slab whole.
     // Nor may a plane between voxel planes: the slab's labelling saw the voxel planes around
     // it, and an interpolated plane can miss what joins them (a contact its image shows no
-    // bridge for). Its pieces' Euler characteristics must add up to the slab's.
+    // bridge for), or join what the cells keep apart (a crop of the smoke: a speck of one pixel
+    // meets a body at a saddle that volumeToMesh leaves open, and the field half a voxel on joins
+    // them). Its pieces' Euler characteristics must add up to the slab's, and it must join the
+    // slab's loops as the slab does (it may find a component of its own between them).
     const double wMiddle = mPlanes[middle].w;
     const bool betweenVoxelPlanes = wMiddle != std::floor(wMiddle);
-    if ((betweenVoxelPlanes && eulerOf(lower) + eulerOf(upper) != eulerOf(pieces)) ||
+    const auto joinsAsTheSlab = [&] {
+        const LoopGroups whole = loopGroups({{below, above, pieces}}, mPlanes);
+        const LoopGroups halves = loopGroups({{below, middle, lower}, {middle, above, upper}}, mPlanes);
+        return halves.ends == whole.ends && halves.count >= whole.count;
+    };
+    if ((betweenVoxelPlanes && (eulerOf(lower) + eulerOf(upper) != eulerOf(pieces) || !joinsAsTheSlab())) ||
         (wAbove - wBelow <= mMinThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper)))) {
         mDropLastPlane();
         out.push_back({below, above, std::move(pieces)});
@@ -1030,44 +1076,6 @@ void GraphBuilder::refine(int below, int above, std::vector<SlabPiece> pieces,
     }
     refine(below, middle, std::move(lower), out);
     refine(middle, above, std::move(upper), out);
-}
-
-// How the pieces of `slabs` (in order of w) join loops: the group of each loop of the first and
-// the last plane (groups numbered in order of first appearance, bottom loops first), and how many
-// groups there are in all (a loop between them may join neither end: a component of its own).
-struct LoopGroups {
-    std::vector<int> ends;
-    std::size_t count = 0;
-    bool operator==(const LoopGroups& other) const { return ends == other.ends && count == other.count; }
-};
-
-LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::vector<PlaneLoops>& planes)
-{
-    std::map<std::pair<int, int>, std::int32_t> node; // (plane, loop)
-    const auto id = [&](int plane, int loop) {
-        return node.emplace(std::make_pair(plane, loop), static_cast<std::int32_t>(node.size())).first->second;
-    };
-    std::vector<int> stack{slabs.front().below};
-    for (const ContourGraph::Slab& slab : slabs) stack.push_back(slab.above);
-    for (int plane : stack)
-        for (std::size_t l = 0; l < planes[plane].loops.size(); ++l) id(plane, static_cast<int>(l));
-    Labels labels(node.size());
-    for (const ContourGraph::Slab& slab : slabs)
-        for (const SlabPiece& p : slab.pieces) {
-            const std::int32_t first = p.below.empty() ? id(slab.above, p.above[0]) : id(slab.below, p.below[0]);
-            for (int l : p.below) labels.join(first, id(slab.below, l));
-            for (int l : p.above) labels.join(first, id(slab.above, l));
-        }
-    LoopGroups groups;
-    std::map<std::int32_t, int> number;
-    for (int plane : {stack.front(), stack.back()})
-        for (std::size_t l = 0; l < planes[plane].loops.size(); ++l) {
-            const std::int32_t root = labels.find(node.at({plane, static_cast<int>(l)}));
-            groups.ends.push_back(number.emplace(root, static_cast<int>(number.size())).first->second);
-        }
-    for (const auto& [key, n] : node) number.emplace(labels.find(n), static_cast<int>(number.size()));
-    groups.count = number.size();
-    return groups;
 }
 
 // Cuts the range (slabs between two voxel planes, in order) by planes every half, quarter, ...

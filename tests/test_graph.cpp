@@ -1190,6 +1190,21 @@ TEST(Graph, AVoidThatEndsBesideOneThatStartsIsNoBand)
     expectEveryLevelAs(Reconstruction(volume, options), checkTopology(isosurface(volume, 0.0)));
 }
 
+// A random crop of the smoke at iso 0.2, sliced along z with two levels: at z = 37 a speck of one
+// pixel, (x, y) = (86, 91), meets the body diagonally at a saddle that volumeToMesh leaves open,
+// so the speck is a component of its own (z 36.8 to 37.3). A plane added at 37.5 for a merge saw
+// the interpolated field join them, and the Euler characteristic still came out at the cells' 8
+// (a handle fewer besides), so nothing warned: 11 components against 12. A plane added between
+// voxel planes must now join the slab's loops as the slab does, or the slab stays whole.
+TEST(Graph, ASpeckTouchingABodyAtASaddleStaysApartAtAnAddedPlane)
+{
+    const Volume volume = smokeCrop({54, 89, 10}, {100, 114, 38}, 0.2);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    options.levels = 2;
+    expectEveryLevelAs(Reconstruction(volume, options), checkTopology(isosurface(volume, 0.0)));
+}
+
 // A random crop of the smoke at iso 0.2, sliced along z: a void of one voxel at z = 36, which
 // volumeToMesh keeps apart from a void beside it below (it joins the dense pair across their
 // voxel edge). A plane added at 35.5 for another event shows that contact as a bridge, so the
