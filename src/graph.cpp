@@ -1225,11 +1225,12 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
         // Where the spacing stops short of the box's end, the voxel layers past the last plane can
         // hold what no plane meets (specks: five in a crop of the smoke), and the cells count it
         // there. The box's last voxel plane meets every such speck (each holds an inside voxel),
-        // and the slab up to it is compared with the cells like any other.
+        // and the slab up to it is compared with the cells like any other. It is added even where
+        // the counts agree past the last plane: a speck there can hide behind a handle that the
+        // pieces out to empty space miss (another crop: a component short, with no warning).
         const double wLast = original > 0 ? planes[static_cast<std::size_t>(last)].w : 0.0;
         const double wEnd = volume.bboxMax()[plan.axis];
-        if (original > 0 && wEnd > wLast && wLast == std::floor(wLast) &&
-            profile.between(wLast, std::numeric_limits<double>::infinity()) != eulerOf(graph.afterLast)) {
+        if (original > 0 && wEnd > wLast && wLast == std::floor(wLast)) {
             const int end = addPlane(wEnd);
             builder.refine(last, end, builder.connect(last, end), graph.slabs);
             last = end;

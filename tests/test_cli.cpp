@@ -191,32 +191,32 @@ TEST(Cli, WarnsOfNoUnresolvedPieceWhereEveryPieceIsPatched)
     EXPECT_EQ(smoke.err.find("fit no construction"), std::string::npos) << smoke.err;
 }
 
-TEST(Cli, WarnsWhenTheMeshIsClosedOtherwiseThanItsPiecesCount)
+TEST(Cli, TheMeshIsClosedAsItsPiecesCount)
 {
     // The events' sum and the constructions' (caps less saddles, and the patches': the mesh's
-    // Euler characteristic) differ where a piece was closed otherwise than it counts, and the tool
-    // says so. A crop of the smoke at iso 0.1 along y: three contours of its last plane join past it,
-    // and the patch out to the box finds a handle the labelling lacks, so they are capped one by
-    // one (the events count 4, the mesh has 8; the isosurface 6). The aorta's sums agree.
+    // Euler characteristic) would differ where a piece was closed otherwise than it counts, and
+    // the tool would say so (frame.cpp, warnIfBuiltDiffers). A crop of the smoke at iso 0.1 along
+    // y showed it: three contours of its last plane, a voxel short of the box, joined past it,
+    // and the patch out to the box found a handle the labelling lacked, so they were capped one
+    // by one (the events counted 4, the mesh had 8; the isosurface 6). Where the cells are
+    // compared, the box's last voxel plane is a plane now, and that crop's sums agree at the
+    // isosurface's 6. No input we know shows the warning any more; these two must not.
     TempDir dir;
     const std::string crop = dir.path("crop.vdb");
     test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), crop, {20, 10, 56}, {48, 48, 102});
     const std::string aorta = test::realData("vmtk_aorta_ls.vdb");
-    for (const auto& [file, args, parts] :
-         {std::tuple{crop, std::string(" --iso 0.1 --axis y"), true}, std::tuple{aorta, std::string(), false}}) {
+    for (const auto& [file, args, euler] :
+         {std::tuple{crop, std::string(" --iso 0.1 --axis y"), 6LL}, std::tuple{aorta, std::string(), 2LL}}) {
         SCOPED_TRACE(file);
         const std::string report = dir.path("r.json");
         const test::CliResult r = runCli("mesh '" + file + "'" + args + " -o '" + dir.path("m.ply") +
                                          "' --levels 1 --report '" + report + "'");
         ASSERT_EQ(r.exitCode, 0) << r.err;
         const nlohmann::json json = readJson(report);
-        const long long slabs = json["events"]["euler"].get<long long>();
-        const long long built = json["events"]["built_euler"].get<long long>();
-        EXPECT_EQ(slabs != built, parts); // else the inputs no longer show both cases
-        EXPECT_EQ(built, json["levels"][0]["euler"].get<long long>());
-        const bool warned = r.err.find("the mesh's Euler characteristic is " + std::to_string(built) +
-                                       " where its slab pieces count " + std::to_string(slabs)) != std::string::npos;
-        EXPECT_EQ(warned, slabs != built) << r.err;
+        EXPECT_EQ(json["events"]["euler"].get<long long>(), euler);
+        EXPECT_EQ(json["events"]["built_euler"].get<long long>(), euler);
+        EXPECT_EQ(json["levels"][0]["euler"].get<long long>(), euler);
+        EXPECT_EQ(r.err.find("where its slab pieces count"), std::string::npos) << r.err;
     }
 }
 

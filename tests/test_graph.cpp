@@ -226,8 +226,9 @@ TEST(Graph, APatchHasItsPiecesTopologyAndFollowsItsLoops)
 
 namespace {
 
-// The contour graph of the Y between planes 94 and 108 a voxel apart (the fork at z = 101, see
-// SlabPiecesOfAFork, makes the graph compare its ranges with the cells), with `cells` if given.
+// The contour graph of the Y on planes a voxel apart from 94 to the box's last voxel plane (the
+// fork at z = 101, see SlabPiecesOfAFork, makes the graph compare its ranges with the cells, and
+// planes stopping short of the box would have that plane added), with `cells` if given.
 // `planeCount` receives how many planes it ends with.
 ContourGraph yGraph(const std::function<EulerProfile()>& cells, std::size_t& planeCount)
 {
@@ -248,7 +249,7 @@ ContourGraph yGraph(const std::function<EulerProfile()>& cells, std::size_t& pla
         loops.pop_back();
         planes.pop_back();
     };
-    for (double w = 94.0; w <= 108.0; w += 1.0) addPlane(w);
+    for (double w = 94.0; w <= volume.bboxMax()[plan.axis]; w += 1.0) addPlane(w);
     ContourGraph graph = buildContourGraph(volume, plan, planes, 0.5, 3.0, addPlane, dropLastPlane, cells);
     planeCount = planes.size();
     return graph;
@@ -1203,6 +1204,17 @@ TEST(Graph, ASpeckTouchingABodyAtASaddleStaysApartAtAnAddedPlane)
     options.slicing.axis = Axis::Z;
     options.levels = 2;
     expectEveryLevelAs(Reconstruction(volume, options), checkTopology(isosurface(volume, 0.0)));
+}
+
+// A random crop of the smoke at iso 0.2, sliced along y: the planes stop at 47, a voxel short of
+// the box, and past them lie a speck 0.4 voxel across at (41, 48, 66) and a handle of the body
+// that the pieces out to empty space miss. The two make up the cells' count there, so the box's
+// last voxel plane was not added: 11 components against 12, with no warning. It is added now
+// wherever the cells are compared and the planes stop short.
+TEST(Graph, ASpeckPastTheLastPlaneBesideAMissedHandleIsFound)
+{
+    const Volume volume = smokeCrop({35, 21, 56}, {48, 48, 82}, 0.2);
+    expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
 }
 
 // A random crop of the smoke at iso 0.2, sliced along z: a void of one voxel at z = 36, which
