@@ -406,11 +406,14 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     const double wTarget = reaches && direction * (wFar - wApex) > kCapSlack ? wFar : wApex;
     // The end band is held to the bands' rule (correspond): halved, until a quarter voxel or less,
     // while it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
-    // degrees of turn in one step, was 1.07 voxels off). Still out of register there, the end
-    // contour is another shape than the last contour's, and no end of it: the last contour is
-    // capped instead (a crop of the smoke: an arm of a contour of 235 pixels ends within a quarter
-    // voxel, and the band to an end contour of 56 fanned the arm's crossings across air to one
-    // point, 2.30 voxels off; capped at the contour, 0.76).
+    // degrees of turn in one step, was 1.07 voxels off), or would fan a part of the last contour
+    // more than 3 pixels from the end contour across a gap of it wider than that (a U-shaped
+    // contour at a crop's face whose end contour keeps one arm: in register on average, 2.25
+    // pixels, but the other arm fanned across 14 pixels of air, 4.05 voxels off). Still out of
+    // register there, the end contour is another shape than the last contour's, and no end of
+    // it: the last contour is capped instead (a crop of the smoke: an arm of a contour of 235
+    // pixels ends within a quarter voxel, and the band to an end contour of 56 fanned the arm's
+    // crossings across air to one point, 2.30 voxels off; capped at the contour, 0.76).
     double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
     if (step < 0.25) return false;
     // An end contour's plane holds it alone: the loops it must keep off are those of the tube's
@@ -421,19 +424,20 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
         onGraph = tube.members[top ? tube.members.size() - 1 - k : k];
         if (std::find(mGraph.order.begin(), mGraph.order.end(), onGraph.first) != mGraph.order.end()) break;
     }
-    const auto apart = [&](const SliceLoop& end) {
-        return misregistration(member.view, member.profile, end.view, end.profile);
+    const auto outOfRegister = [&](const SliceLoop& end) {
+        return misregistration(member.view, member.profile, end.view, end.profile) > kOutOfRegister ||
+               widestGapToward(member.view, end.view, kOutOfRegister) > kOutOfRegister;
     };
     std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph);
-    double endApart = endLoop ? apart(*endLoop) : 0.0;
-    while (endLoop && step > 0.25 && endApart > kOutOfRegister) {
+    bool apart = endLoop && outOfRegister(*endLoop);
+    while (endLoop && step > 0.25 && apart) {
         std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step, onGraph);
         if (!closer) break;
         endLoop = std::move(closer);
-        endApart = apart(*endLoop);
+        apart = outOfRegister(*endLoop);
         step *= 0.5;
     }
-    if (!endLoop || endApart > kOutOfRegister) return false;
+    if (!endLoop || apart) return false;
     const double wEnd = plane.w() + direction * step;
     const glm::dvec2 center = endLoop->view.center;
     appendEndContour(tube, top, wEnd, std::move(*endLoop)); // `member` dangles from here on

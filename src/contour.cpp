@@ -1018,6 +1018,45 @@ double misregistration(const LoopView& a, const RadialProfile& p, const LoopView
     return count > 0 ? sum / static_cast<double>(count) : std::numeric_limits<double>::infinity();
 }
 
+double widestGapToward(const LoopView& a, const LoopView& b, double far)
+{
+    const auto cross = [](const glm::dvec2& u, const glm::dvec2& v) { return u.x * v.y - u.y * v.x; };
+    const std::size_t n = a.polygon.size();
+    double widest = 0.0;
+    std::vector<double> crossings; // along a segment, strictly between its ends
+    for (const glm::dvec2& from : a.polygon) {
+        glm::dvec2 to = from;
+        double nearest2 = std::numeric_limits<double>::infinity();
+        for (const glm::dvec2& q : b.polygon) {
+            const glm::dvec2 d = q - from;
+            if (glm::dot(d, d) < nearest2) {
+                nearest2 = glm::dot(d, d);
+                to = q;
+            }
+        }
+        if (!(nearest2 > far * far) || std::sqrt(nearest2) <= widest) continue;
+        const glm::dvec2 along = to - from;
+        crossings.clear();
+        for (std::size_t i = 0; i < n; ++i) {
+            const glm::dvec2 c = a.polygon[i], e = a.polygon[i + 1 < n ? i + 1 : 0] - c;
+            const double denominator = cross(along, e);
+            if (denominator == 0.0) continue;
+            const double t = cross(c - from, e) / denominator, s = cross(c - from, along) / denominator;
+            if (t > 1e-6 && t < 1.0 - 1e-6 && s >= 0.0 && s < 1.0) crossings.push_back(t);
+        }
+        // `from` lies on the polygon itself, so only the stretches between two crossings lie
+        // between stretches inside and outside.
+        std::sort(crossings.begin(), crossings.end());
+        const double length = std::sqrt(nearest2);
+        for (std::size_t k = 0; k + 1 < crossings.size(); ++k) {
+            const double gap = (crossings[k + 1] - crossings[k]) * length;
+            if (gap > widest && !insidePolygon(a.polygon, from + 0.5 * (crossings[k] + crossings[k + 1]) * along))
+                widest = gap;
+        }
+    }
+    return widest;
+}
+
 Contour castRays(const LoopView& view, const RaySet& rays, const SlicePlane& plane)
 {
     return castRaysImpl(view, rays, plane);

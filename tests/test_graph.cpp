@@ -1477,6 +1477,17 @@ TEST(Graph, AnEndContourOutOfRegisterIsNoEnd)
     expectTopLevelOnTheIsosurface(smokeCrop({43, 98, 25}, {82, 120, 71}, 0.2), Axis::Z);
 }
 
+// A crop of the smoke at iso 0.1, sliced along z: at the crop's first plane, z = 71, a contour is
+// U-shaped, a bar and a blob joined by a thin arm, and the field dies out past the box. The end
+// contour past it keeps the blob alone: 2.25 pixels from the last contour on average, under the
+// bound, but its band fanned the bar across 14 pixels of air to the blob, 4.05 voxels off at every
+// level. An end contour whose band would fan a part of the contour across a gap wider than that
+// bound is out of register too.
+TEST(Graph, AnEndContourThatFansAcrossAGapIsNoEnd)
+{
+    expectTopLevelOnTheIsosurface(smokeCrop({42, 146, 71}, {66, 173, 97}, 0.1), Axis::Z);
+}
+
 // A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
 // 3.6 pixels while the contours' shape changes by 2.2 pixels at most, under the bound for taking
 // a band's cells, and the middle plane's loop splits, so that no plane could be added for the band

@@ -210,6 +210,12 @@ RadialProfile radialProfile(const LoopView& view, int directions);
 /// direction has both.
 double misregistration(const LoopView& a, const RadialProfile& p, const LoopView& b, const RadialProfile& q);
 
+/// How wide a gap of a the band from a to b would fan across: for each point of a's polygon more
+/// than `far` pixels from b's points, the segment to the nearest of them; the longest stretch of
+/// such a segment that lies outside a's polygon between two stretches inside it (an arm of a that
+/// b lacks, with air between it and b), in pixels; 0 for none.
+double widestGapToward(const LoopView& a, const LoopView& b, double far);
+
 /// Casts `rays` from the view's centre (pixels) against the loop and classifies the edges. `plane`
 /// is only read during the call. The loop's points fix which crossings exist and their order; each
 /// position is then refined to the root of the field interpolated along the ray, between the
