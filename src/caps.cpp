@@ -437,6 +437,7 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
         apart = outOfRegister(*endLoop);
         step *= 0.5;
     }
+    end.unregistered = endLoop && apart;
     if (!endLoop || apart) return false;
     const double wEnd = plane.w() + direction * step;
     const glm::dvec2 center = endLoop->view.center;
@@ -445,6 +446,40 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     end.hasApex = findApex(SlicePlane(mVolume, mPlan, wEnd), center, direction,
                            std::min(2.0 * kEndInset + 1.0, direction * (end.wBound - wEnd)), wAgain, sign);
     end.apexIndex = planeToIndex(mPlan.axis, center, wAgain);
+    return true;
+}
+
+bool Reconstruction::patchEnd(Tube& tube, bool top)
+{
+    // The piece whose one loop is the tube's end member and that has none on the other side: on a
+    // slab of the graph, or out to the empty plane past the box. An end contour added before
+    // lies on no plane of the graph, and no piece ends it.
+    const auto [s, l] = top ? tube.members.back() : tube.members.front();
+    const auto ends = [&, l = l](const SlabPiece& p) {
+        return (top ? p.below : p.above) == std::vector<int>{l} && (top ? p.above : p.below).empty();
+    };
+    int below = -1, above = -1;
+    const SlabPiece* piece = nullptr;
+    if (s == (top ? mGraph.order.back() : mGraph.order.front())) {
+        const std::vector<SlabPiece>& past = top ? mGraph.afterLast : mGraph.beforeFirst;
+        const auto it = std::find_if(past.begin(), past.end(), ends);
+        piece = it != past.end() ? &*it : nullptr;
+        (top ? below : above) = s;
+    } else {
+        for (const ContourGraph::Slab& slab : mGraph.slabs) {
+            if ((top ? slab.below : slab.above) != s) continue;
+            const auto it = std::find_if(slab.pieces.begin(), slab.pieces.end(), ends);
+            if (it == slab.pieces.end()) continue;
+            piece = &*it;
+            below = slab.below;
+            above = slab.above;
+        }
+    }
+    if (!piece) return false;
+    std::optional<SlabPatch> surface = std::move(patchesOf(below, above, {piece}).front());
+    if (!surface || surface->euler != piece->euler()) return false;
+    SlabPiece counted = *piece; // its count stays the graph's: the patch has its Euler characteristic
+    (top ? tube.top : tube.bottom).patch = addPatch(below, above, counted, std::move(*surface));
     return true;
 }
 
@@ -490,6 +525,15 @@ void Reconstruction::closeEnds()
             }
         }
     }
+    // An end whose end contour could not be brought into register is another shape past the
+    // plane than the contour, and its cap at the contour can lie far from the surface (a crop of
+    // the smoke: 1.16 voxels; another, 2.08). Where the cells of the graph's piece that ends it
+    // close it with the piece's Euler characteristic, they mesh it, as for a fork or merge.
+    for (Tube& tube : mTubes)
+        for (const bool top : {false, true}) {
+            TubeEnd& end = top ? tube.top : tube.bottom;
+            if (end.unregistered && !end.joined() && patchEnd(tube, top)) end.hasApex = false;
+        }
     // One cap style for every level, so that levels nest: an apex fan where the end contour is
     // star-shaped with the finest rays (a ray crossing it more than once would at every finer
     // level too), ear clipping otherwise.

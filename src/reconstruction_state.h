@@ -50,6 +50,7 @@ struct Reconstruction::TubeEnd {
     bool goesOn = false;       // the object goes on past it: a piece of the slab that no
                                // construction resolved (its loops are capped one by one)
     double wBound = 0.0;       // how far its end contours and apex may go (closeEnds)
+    bool unregistered = false; // an end contour was found but could not be brought into register
     bool joined() const { return junction >= 0 || patch >= 0; } // closed by another surface
 };
 struct Reconstruction::Tube {

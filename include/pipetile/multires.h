@@ -335,8 +335,11 @@ private:
     /// middle of the slab ahead, where the tubes on the other side meet it, becomes its end.
     void meetHalfway(Tube& tube, bool top);
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
-    /// false if it added none.
+    /// false if it added none (and marks the end unregistered where one was found out of register).
     bool addEndContour(Tube& tube, bool top, bool probeAnyway);
+    /// Closes the tube's end on that side by the cells of the graph's piece that ends it there,
+    /// where they close it; false, with the end left as it was, if they do not.
+    bool patchEnd(Tube& tube, bool top);
     /// A lone contour with no apex either side whose region the field fills to the middle of the
     /// slab past it: that end fans round an apex there, so its object is not dropped.
     void fanPastTheNextPlane(Tube& tube) const;
