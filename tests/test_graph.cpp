@@ -495,6 +495,30 @@ TEST(Graph, TwistingCsAreCappedAtTheirFlatEnds)
 
 namespace {
 
+// `mesh` has the isosurface's Euler characteristic and components, and lies within `voxels` of it.
+void expectOnTheIsosurface(const Volume& volume, const TriangleMesh& mesh, double voxels)
+{
+    const Validation v = Validator(volume).validate(mesh);
+    const Topology reference = checkTopology(isosurface(volume, 0.0));
+    EXPECT_EQ(v.topology.euler, reference.euler);
+    EXPECT_EQ(v.topology.components, reference.components);
+    EXPECT_LE(v.symmetric.max / v.voxel, voxels);
+}
+
+// Sliced along `axis`, the top level has the isosurface's Euler characteristic and components,
+// and lies within a voxel of it.
+void expectTopLevelOnTheIsosurface(const Volume& volume, Axis axis = Axis::X)
+{
+    MeshOptions options;
+    options.slicing.axis = axis;
+    const Reconstruction reconstruction(volume, options);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+}
+
+} // namespace
+
+namespace {
+
 // Two bars along z in a 16 x 16 x 22 fog, the second shifted across, touching the first only
 // along a voxel edge or at a corner: across the slab (stacked) or along their length (beside).
 struct FogContact {
@@ -541,9 +565,9 @@ void expectEveryLevelAlongZAs(const Volume& volume, int components, int euler,
 
 // Every level of the contact's fog at iso 0.5 against volumeToMesh's isosurface, whose Euler
 // characteristic and components are the contact's.
-void expectFogContactAsVolumeToMesh(const FogContact& contact)
+// The two bars of `contact` in their block (read at iso 0.5).
+Volume fogContactVolume(const FogContact& contact)
 {
-    SCOPED_TRACE(contact.name);
     const auto inBar = [](int x, int y, int z, glm::ivec2 at, int z0, int z1) {
         return x >= at.x && x < at.x + 5 && y >= at.y && y < at.y + 5 && z >= z0 && z <= z1;
     };
@@ -558,7 +582,13 @@ void expectFogContactAsVolumeToMesh(const FogContact& contact)
     });
     VolumeOptions read;
     read.iso = 0.5;
-    const Volume volume = readVolume(path, read);
+    return readVolume(path, read);
+}
+
+void expectFogContactAsVolumeToMesh(const FogContact& contact)
+{
+    SCOPED_TRACE(contact.name);
+    const Volume volume = fogContactVolume(contact);
     const Topology reference = checkTopology(isosurface(volume, 0.0));
     EXPECT_EQ(reference.euler, contact.euler);
     EXPECT_EQ(reference.components, contact.components);
@@ -587,10 +617,15 @@ TEST(Graph, FogSaddlesJoinAsVolumeToMeshJoinsThem)
 // slice, with the central points at their pinch. Neither end had an apex on that axis, so the
 // block's top and the hole's were taken for a hollow pipe's open rim and joined by an annulus:
 // the void opened (Euler characteristic 2, one component). A hole's end is now sought from
-// points all over it, and a wall's too where no open hole ends with it (addEndContour).
+// points all over it, and a wall's too where no open hole ends with it (addEndContour). Its top
+// end, under the block's lid one voxel thick, was 1.22 voxels off at the top level: its end
+// contour was out of register whatever its central point, and the cap fanned to an apex at the
+// cavities' pinch. That end now takes its piece's cells (patchEnd): 0.50.
 TEST(Graph, CavitiesTouchingAlongTheirLengthStayOneVoid)
 {
-    expectFogContactAsVolumeToMesh({"cavities, edge along the bars", {5, 5}, false, 0.0f, 1.0f, 4, 2});
+    const FogContact cavities{"cavities, edge along the bars", {5, 5}, false, 0.0f, 1.0f, 4, 2};
+    expectFogContactAsVolumeToMesh(cavities);
+    expectTopLevelOnTheIsosurface(fogContactVolume(cavities), Axis::Z);
 }
 
 TEST(Graph, JunctionsDoNotDependOnTheThreads)
@@ -1397,30 +1432,6 @@ const std::vector<std::vector<Capsule>>& crossingTrees()
                                                              {{48.5, 53.5, 63.3}, {52.7, 43, 72.5}, 3.94},
                                                              {{48.5, 53.5, 63.3}, {45.8, 40.5, 72.5}, 3.94}}};
     return trees;
-}
-
-} // namespace
-
-namespace {
-
-// `mesh` has the isosurface's Euler characteristic and components, and lies within `voxels` of it.
-void expectOnTheIsosurface(const Volume& volume, const TriangleMesh& mesh, double voxels)
-{
-    const Validation v = Validator(volume).validate(mesh);
-    const Topology reference = checkTopology(isosurface(volume, 0.0));
-    EXPECT_EQ(v.topology.euler, reference.euler);
-    EXPECT_EQ(v.topology.components, reference.components);
-    EXPECT_LE(v.symmetric.max / v.voxel, voxels);
-}
-
-// Sliced along `axis`, the top level has the isosurface's Euler characteristic and components,
-// and lies within a voxel of it.
-void expectTopLevelOnTheIsosurface(const Volume& volume, Axis axis = Axis::X)
-{
-    MeshOptions options;
-    options.slicing.axis = axis;
-    const Reconstruction reconstruction(volume, options);
-    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
 }
 
 } // namespace
