@@ -934,7 +934,9 @@ bool bandsOnly(const std::vector<SlabPiece>& pieces)
 struct LoopGroups {
     std::vector<int> ends;
     std::size_t count = 0;
-    bool operator==(const LoopGroups& other) const { return ends == other.ends && count == other.count; }
+    // Whether these join the end loops as `before` did, parting no component of it (a speck
+    // between the planes can be one of their own).
+    bool joinAs(const LoopGroups& before) const { return ends == before.ends && count >= before.count; }
 };
 
 LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::vector<PlaneLoops>& planes)
@@ -1064,9 +1066,8 @@ void GraphBuilder::refine(int below, int above, std::vector<SlabPiece> pieces,
     const double wMiddle = mPlanes[middle].w;
     const bool betweenVoxelPlanes = wMiddle != std::floor(wMiddle);
     const auto joinsAsTheSlab = [&] {
-        const LoopGroups whole = loopGroups({{below, above, pieces}}, mPlanes);
-        const LoopGroups halves = loopGroups({{below, middle, lower}, {middle, above, upper}}, mPlanes);
-        return halves.ends == whole.ends && halves.count >= whole.count;
+        return loopGroups({{below, middle, lower}, {middle, above, upper}}, mPlanes)
+            .joinAs(loopGroups({{below, above, pieces}}, mPlanes));
     };
     if ((betweenVoxelPlanes && (eulerOf(lower) + eulerOf(upper) != eulerOf(pieces) || !joinsAsTheSlab())) ||
         (wAbove - wBelow <= mMinThickness && bandsOnly(pieces) && !(bandsOnly(lower) && bandsOnly(upper)))) {
@@ -1111,8 +1112,7 @@ bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long l
             cut.push_back({it->second, std::next(it)->second, label(it->second, std::next(it)->second)});
             euler += eulerOf(cut.back().pieces);
         }
-        const LoopGroups now = loopGroups(cut, mPlanes);
-        const bool joinsAsBefore = now.ends == groups.ends && now.count >= groups.count;
+        const bool joinsAsBefore = loopGroups(cut, mPlanes).joinAs(groups);
         if (euler == target && joinsAsBefore) {
             matched = std::move(cut);
             addedWhenMatched = added;

@@ -1096,6 +1096,15 @@ TEST(Graph, BudsAtTwoNecksOfABodyCloseByChordsOfTheirOwn)
 
 namespace {
 
+// A reconstruction of `volume` sliced along `axis`, with `levels` levels.
+Reconstruction slicedWithLevels(const Volume& volume, Axis axis, int levels)
+{
+    MeshOptions options;
+    options.slicing.axis = axis;
+    options.levels = levels;
+    return Reconstruction(volume, options);
+}
+
 // The smoke's voxels in the index box [lo, hi], read at `iso`.
 Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
 {
@@ -1190,10 +1199,7 @@ TEST(Graph, AVoidOfTwoVoxelPairsJoinedAcrossAVoxelPlaneIsOneComponent)
 TEST(Graph, ASpeckNextToAMissedHandleIsFound)
 {
     const Volume volume = smokeCrop({66, 123, 53}, {104, 149, 103}, 0.2);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    options.levels = 2;
-    const Reconstruction reconstruction(volume, options);
+    const Reconstruction reconstruction = slicedWithLevels(volume, Axis::Z, 2);
     EXPECT_GT(reconstruction.graph().cellMatches, 0);
     expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
@@ -1220,10 +1226,7 @@ TEST(Graph, ALumenOpeningBetweenTwoPlanesIsAHandle)
 TEST(Graph, AVoidThatEndsBesideOneThatStartsIsNoBand)
 {
     const Volume volume = smokeCrop({54, 3, 60}, {87, 25, 92}, 0.1);
-    MeshOptions options;
-    options.slicing.axis = Axis::X;
-    options.levels = 2;
-    expectEveryLevelAs(Reconstruction(volume, options), checkTopology(isosurface(volume, 0.0)));
+    expectEveryLevelAs(slicedWithLevels(volume, Axis::X, 2), checkTopology(isosurface(volume, 0.0)));
 }
 
 // A random crop of the smoke at iso 0.2, sliced along z with two levels: at z = 37 a speck of one
@@ -1235,10 +1238,7 @@ TEST(Graph, AVoidThatEndsBesideOneThatStartsIsNoBand)
 TEST(Graph, ASpeckTouchingABodyAtASaddleStaysApartAtAnAddedPlane)
 {
     const Volume volume = smokeCrop({54, 89, 10}, {100, 114, 38}, 0.2);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    options.levels = 2;
-    expectEveryLevelAs(Reconstruction(volume, options), checkTopology(isosurface(volume, 0.0)));
+    expectEveryLevelAs(slicedWithLevels(volume, Axis::Z, 2), checkTopology(isosurface(volume, 0.0)));
 }
 
 // A random crop of the smoke at iso 0.2, sliced along y: the planes stop at 47, a voxel short of
