@@ -415,6 +415,11 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // pixels ends within a quarter voxel, and the band to an end contour of 56 fanned the arm's
     // crossings across air to one point, 2.30 voxels off; capped at the contour, 0.76).
     double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
+    // From a voxel plane, the first end contour goes no farther than the next voxel plane, which
+    // the end's band would otherwise pass by: a crop of the smoke starts a tube at y = 100 whose
+    // region at 99 reaches 4 voxels past its contour, a ledge barely past the isovalue that
+    // neither 100 nor an end contour at 98.6 shows (2.48 voxels off at the top level, now 0.83).
+    if (plane.w() == std::floor(plane.w())) step = std::min(step, 1.0);
     if (step < 0.25) return false;
     // An end contour's plane holds it alone: the loops it must keep off are those of the tube's
     // last plane of the graph (the smoke at iso 0.1: a speck's second end contour took a ring of

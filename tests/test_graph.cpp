@@ -1508,6 +1508,16 @@ TEST(Graph, AnEndWithNoEndContourInRegisterTakesItsCells)
     expectTopLevelOnTheIsosurface(smokeCrop({70, 93, 60}, {108, 140, 86}, 0.2), Axis::Y);
 }
 
+// A crop of the smoke at iso 0.3, sliced along y: a tube starts at y = 100 with a loop of a few
+// pixels, and in the voxel plane below, 99, its region reaches 4 voxels past that loop (a ledge
+// barely past the isovalue, gone again by 98). Its end contour, 1.37 voxels on at 98.6, was in
+// register with the loop, and the band to it passed the ledge by: 2.48 voxels off at the top
+// level. From a voxel plane, the first end contour now goes no farther than the next one.
+TEST(Graph, AnEndContourStopsAtTheNextVoxelPlane)
+{
+    expectTopLevelOnTheIsosurface(smokeCrop({30, 92, 76}, {78, 113, 104}, 0.3), Axis::Y);
+}
+
 // A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
 // 3.6 pixels while the contours' shape changes by 2.2 pixels at most, under the bound for taking
 // a band's cells, and the middle plane's loop splits, so that no plane could be added for the band
