@@ -505,14 +505,26 @@ void expectOnTheIsosurface(const Volume& volume, const TriangleMesh& mesh, doubl
     EXPECT_LE(v.symmetric.max / v.voxel, voxels);
 }
 
-// Sliced along `axis`, the top level has the isosurface's Euler characteristic and components,
-// and lies within a voxel of it.
-void expectTopLevelOnTheIsosurface(const Volume& volume, Axis axis = Axis::X)
+// A reconstruction of `volume` sliced along `axis`, with `levels` levels.
+Reconstruction slicedAlong(const Volume& volume, Axis axis, int levels = MeshOptions{}.levels)
 {
     MeshOptions options;
     options.slicing.axis = axis;
-    const Reconstruction reconstruction(volume, options);
+    options.levels = levels;
+    return Reconstruction(volume, options);
+}
+
+// The reconstruction's top level has the isosurface's Euler characteristic and components, and
+// lies within a voxel of it.
+void expectTopLevelOnTheIsosurface(const Volume& volume, const Reconstruction& reconstruction)
+{
     expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+}
+
+// The same, sliced along `axis`.
+void expectTopLevelOnTheIsosurface(const Volume& volume, Axis axis = Axis::X)
+{
+    expectTopLevelOnTheIsosurface(volume, slicedAlong(volume, axis));
 }
 
 } // namespace
@@ -1096,15 +1108,6 @@ TEST(Graph, BudsAtTwoNecksOfABodyCloseByChordsOfTheirOwn)
 
 namespace {
 
-// A reconstruction of `volume` sliced along `axis`, with `levels` levels.
-Reconstruction slicedWithLevels(const Volume& volume, Axis axis, int levels)
-{
-    MeshOptions options;
-    options.slicing.axis = axis;
-    options.levels = levels;
-    return Reconstruction(volume, options);
-}
-
 // The smoke's voxels in the index box [lo, hi], read at `iso`.
 Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
 {
@@ -1199,7 +1202,7 @@ TEST(Graph, AVoidOfTwoVoxelPairsJoinedAcrossAVoxelPlaneIsOneComponent)
 TEST(Graph, ASpeckNextToAMissedHandleIsFound)
 {
     const Volume volume = smokeCrop({66, 123, 53}, {104, 149, 103}, 0.2);
-    const Reconstruction reconstruction = slicedWithLevels(volume, Axis::Z, 2);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Z, 2);
     EXPECT_GT(reconstruction.graph().cellMatches, 0);
     expectEveryLevelAs(reconstruction, checkTopology(isosurface(volume, 0.0)));
 }
@@ -1226,7 +1229,7 @@ TEST(Graph, ALumenOpeningBetweenTwoPlanesIsAHandle)
 TEST(Graph, AVoidThatEndsBesideOneThatStartsIsNoBand)
 {
     const Volume volume = smokeCrop({54, 3, 60}, {87, 25, 92}, 0.1);
-    expectEveryLevelAs(slicedWithLevels(volume, Axis::X, 2), checkTopology(isosurface(volume, 0.0)));
+    expectEveryLevelAs(slicedAlong(volume, Axis::X, 2), checkTopology(isosurface(volume, 0.0)));
 }
 
 // A random crop of the smoke at iso 0.2, sliced along z with two levels: at z = 37 a speck of one
@@ -1238,7 +1241,7 @@ TEST(Graph, AVoidThatEndsBesideOneThatStartsIsNoBand)
 TEST(Graph, ASpeckTouchingABodyAtASaddleStaysApartAtAnAddedPlane)
 {
     const Volume volume = smokeCrop({54, 89, 10}, {100, 114, 38}, 0.2);
-    expectEveryLevelAs(slicedWithLevels(volume, Axis::Z, 2), checkTopology(isosurface(volume, 0.0)));
+    expectEveryLevelAs(slicedAlong(volume, Axis::Z, 2), checkTopology(isosurface(volume, 0.0)));
 }
 
 // A random crop of the smoke at iso 0.2, sliced along y: the planes stop at 47, a voxel short of
@@ -1474,7 +1477,7 @@ TEST(Graph, AnEndsSpikeOnePixelWideIsReached)
     options.slicing.axis = Axis::Z;
     options.slicing.spacingVoxels = 2.0; // planes at 14 and 16, the spike's tip between them
     const Reconstruction reconstruction(volume, options);
-    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
 }
 
 // A crop of the smoke at iso 0.2 (sliced along z, its default): at the crop's last voxel plane,
@@ -1527,11 +1530,9 @@ TEST(Graph, AnEndContourStopsAtTheNextVoxelPlane)
 TEST(Graph, ABandWhoseMiddlePlaneIsNoBandTakesItsCells)
 {
     const Volume volume = smokeCrop({64, 132, 40}, {102, 167, 65}, 0.2);
-    MeshOptions options;
-    options.slicing.axis = Axis::X;
-    const Reconstruction reconstruction(volume, options);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::X);
     ASSERT_GT(reconstruction.stats().bandPatches, 0);
-    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
 }
 
 // A crop of the smoke at iso 0.1, sliced along y: at y = 153 a contour forks into six partners a
@@ -1593,7 +1594,7 @@ TEST(Graph, ABandTakesTheMiddlePlaneWhereItsLoopStrays)
         MeshOptions options;
         options.slicing.axis = Axis::Z;
         const Reconstruction reconstruction(volume, options);
-        expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+        expectTopLevelOnTheIsosurface(volume, reconstruction);
     }
 }
 
@@ -1612,11 +1613,9 @@ TEST(Graph, ABulgeBetweenSlicesOfTheSmokeTakesAPlane)
 TEST(Graph, AHoleThatOpensIntoOnePartnersSideIsCutOpenByAKeyhole)
 {
     const Volume volume = smokeCrop({69, 95, 25}, {94, 117, 59}, 0.2);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    const Reconstruction reconstruction(volume, options);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Z);
     EXPECT_GE(reconstruction.stats().keyholes, 1);
-    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
 }
 
 TEST(Graph, TheCellsCountTheHandlesOfTreesWhoseBranchesCross)
@@ -1911,7 +1910,7 @@ TEST(Graph, RingTreeElevenIsWithinAVoxelAtTheTopLevel)
     options.slicing.axis = Axis::X;
     const Reconstruction reconstruction(volume, options);
     ASSERT_GT(reconstruction.stats().patches, 0); // else the tree no longer shows the case
-    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
 }
 
 namespace {
