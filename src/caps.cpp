@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <deque>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -245,6 +246,11 @@ constexpr int kMostEndContours = 8;
 // phantoms' meshes changed).
 constexpr double kPastNextPlane = 0.5;
 
+// Pixels that a voxel plane between an end's last plane of the graph and its cap may show the end's
+// region beyond every contour of that end before the end's cells mesh it: the bands' bound
+// (graph.cpp, kBandStray), as a band's stray past its middle plane's loop.
+constexpr double kEndStray = 1.5;
+
 // How far past a tube's last contour its end is sought: a slice spacing and two voxels.
 double endReach(const MeshOptions& options)
 {
@@ -424,11 +430,7 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // An end contour's plane holds it alone: the loops it must keep off are those of the tube's
     // last plane of the graph (the smoke at iso 0.1: a speck's second end contour took a ring of
     // 1698 pixels around another object's hole, capped flat 5.7 voxels off the surface).
-    std::pair<int, int> onGraph{s, l};
-    for (std::size_t k = 0; k < tube.members.size(); ++k) {
-        onGraph = tube.members[top ? tube.members.size() - 1 - k : k];
-        if (std::find(mGraph.order.begin(), mGraph.order.end(), onGraph.first) != mGraph.order.end()) break;
-    }
+    const std::pair<int, int> onGraph = tube.members[graphEnd(tube, top)];
     const auto outOfRegister = [&](const SliceLoop& end) {
         return misregistration(member.view, member.profile, end.view, end.profile) > kOutOfRegister ||
                widestGapToward(member.view, end.view, kOutOfRegister) > kOutOfRegister;
@@ -454,12 +456,91 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     return true;
 }
 
+std::size_t Reconstruction::graphEnd(const Tube& tube, bool top) const
+{
+    for (std::size_t k = 0; k < tube.members.size(); ++k) {
+        const std::size_t m = top ? tube.members.size() - 1 - k : k;
+        if (std::find(mGraph.order.begin(), mGraph.order.end(), tube.members[m].first) != mGraph.order.end()) return m;
+    }
+    return top ? tube.members.size() - 1 : 0;
+}
+
+void Reconstruction::closeEnd(Tube& tube, bool top, bool probeAnyway,
+                              std::map<double, std::vector<BoundaryLoop>>& voxelPlanes)
+{
+    const std::size_t planes = mPositions.size();
+    for (int added = 0; added < kMostEndContours && addEndContour(tube, top, probeAnyway); ++added) {
+    }
+    // An end whose end contour could not be brought into register is another shape past the
+    // plane than the contour, and its cap at the contour can lie far from the surface (a crop of
+    // the smoke: 1.16 voxels; another, 2.08). So is one that a voxel plane before its cap shows
+    // reaching farther than its contours (a blob's flat top in one voxel plane, barely past the
+    // isovalue: its end contour a quarter voxel below was a sliver of it, 2.40 voxels off). Where
+    // the cells of the graph's piece that ends it close it with the piece's Euler characteristic,
+    // they mesh it instead of its end contours, as for a fork or merge.
+    TubeEnd& end = top ? tube.top : tube.bottom;
+    if (!end.hasApex || !(end.unregistered || reachesPastContours(tube, top, voxelPlanes)) || !patchEnd(tube, top))
+        return;
+    end.hasApex = false;
+    ++mStats.endPatches;
+    const std::size_t added = mPositions.size() - planes; // the end contours are the last planes
+    mPositions.resize(planes);
+    mLoops.resize(planes);
+    if (top)
+        tube.members.resize(tube.members.size() - added);
+    else
+        tube.members.erase(tube.members.begin(), tube.members.begin() + static_cast<std::ptrdiff_t>(added));
+    mStats.endContours -= static_cast<int>(added);
+}
+
+bool Reconstruction::reachesPastContours(const Tube& tube, bool top,
+                                         std::map<double, std::vector<BoundaryLoop>>& voxelPlanes) const
+{
+    // The end's contours, with their planes: its last on the graph, then its end contours.
+    const std::size_t last = graphEnd(tube, top);
+    std::vector<std::pair<double, const BoundaryLoop*>> contours;
+    for (std::size_t k = top ? last : 0; k <= (top ? tube.members.size() - 1 : last); ++k) {
+        const auto [s, l] = tube.members[k];
+        contours.emplace_back(mPositions[s], &mLoops[s][l].loop);
+    }
+    const auto [s, l] = tube.members[last];
+    const BoundaryLoop& member = mLoops[s][l].loop;
+    const double direction = top ? 1.0 : -1.0, w0 = mPositions[s];
+    const double room = std::min(roomPast(w0, direction), endReach(mOptions));
+    // The voxel planes between the end's plane and the graph's next one, whatever the cap's apex
+    // (a blob's end whose axis leaves it early: its apex half a voxel short of where it reaches on
+    // at its side). There the field is the voxels' own, as volumeToMesh's isosurface meets it.
+    for (double w = top ? std::floor(w0) + 1.0 : std::ceil(w0) - 1.0; direction * (w - w0) < room; w += direction) {
+        auto traced = voxelPlanes.find(w);
+        if (traced == voxelPlanes.end())
+            traced = voxelPlanes.emplace(w, traceBoundaries(SlicePlane(mVolume, mPlan, w))).first;
+        for (const BoundaryLoop& loop : traced->second) {
+            if (loop.hole() != tube.hole || overlapPixels(member, loop, glm::ivec2(0)) == 0 ||
+                sharedWithOthers(s, l, loop))
+                continue;
+            // A loop of the end that no contour within half a voxel overlaps is a part the end
+            // contours did not follow (each follows one loop: an end that parts in two before it
+            // ends left one part a voxel below its flat cap, 1.40 voxels off).
+            const auto follows = [&](const std::pair<double, const BoundaryLoop*>& c) {
+                return std::abs(c.first - w) <= 0.5 && overlapPixels(*c.second, loop, glm::ivec2(0)) > 0;
+            };
+            if (std::none_of(contours.begin(), contours.end(), follows)) return true;
+            for (const glm::dvec2& p : loop.points) {
+                const auto beyond = [&](const std::pair<double, const BoundaryLoop*>& c) {
+                    return !encloses(*c.second, p) && boundaryClearance(*c.second, p) > kEndStray;
+                };
+                if (std::all_of(contours.begin(), contours.end(), beyond)) return true;
+            }
+        }
+    }
+    return false;
+}
+
 bool Reconstruction::patchEnd(Tube& tube, bool top)
 {
-    // The piece whose one loop is the tube's end member and that has none on the other side: on a
-    // slab of the graph, or out to the empty plane past the box. An end contour added before
-    // lies on no plane of the graph, and no piece ends it.
-    const auto [s, l] = top ? tube.members.back() : tube.members.front();
+    // The piece whose one loop is the tube's end member on the graph and that has none on the
+    // other side: on a slab of the graph, or out to the empty plane past the box.
+    const auto [s, l] = tube.members[graphEnd(tube, top)];
     const auto ends = [&, l = l](const SlabPiece& p) {
         return (top ? p.below : p.above) == std::vector<int>{l} && (top ? p.above : p.below).empty();
     };
@@ -497,6 +578,7 @@ void Reconstruction::closeEnds()
             (top ? tube.top : tube.bottom).wBound = w + direction * (roomPast(w, direction) + kPastNextPlane);
         }
     }
+    std::map<double, std::vector<BoundaryLoop>> voxelPlanes; // traced once for every end they lie past
     // Holes first: a wall whose end plane holds a hole that stays open past it (no lid found)
     // is that hole's rim, whatever its own end does at its central point.
     for (const bool holes : {true, false})
@@ -513,8 +595,7 @@ void Reconstruction::closeEnds()
                 if (end.joined() || end.goesOn || end.aroundWall || end.rim) continue;
                 const auto rim = [&](const Tube& hole) { return formRim(tube, hole, top); };
                 if (!holes && std::any_of(mTubes.begin(), mTubes.end(), rim)) continue;
-                for (int added = 0; added < kMostEndContours && addEndContour(tube, top, false); ++added) {
-                }
+                closeEnd(tube, top, false, voxelPlanes);
             }
         }
     // A wall's end that the axis through its central point does not meet and no rim joins (a
@@ -526,19 +607,9 @@ void Reconstruction::closeEnds()
             if (tube.hole || end.hasApex || end.joined() || end.goesOn || end.aroundWall || end.rim ||
                 std::any_of(mTubes.begin(), mTubes.end(), rim))
                 continue;
-            for (int added = 0; added < kMostEndContours && addEndContour(tube, top, true); ++added) {
-            }
+            closeEnd(tube, top, true, voxelPlanes);
         }
     }
-    // An end whose end contour could not be brought into register is another shape past the
-    // plane than the contour, and its cap at the contour can lie far from the surface (a crop of
-    // the smoke: 1.16 voxels; another, 2.08). Where the cells of the graph's piece that ends it
-    // close it with the piece's Euler characteristic, they mesh it, as for a fork or merge.
-    for (Tube& tube : mTubes)
-        for (const bool top : {false, true}) {
-            TubeEnd& end = top ? tube.top : tube.bottom;
-            if (end.unregistered && !end.joined() && patchEnd(tube, top)) end.hasApex = false;
-        }
     // One cap style for every level, so that levels nest: an apex fan where the end contour is
     // star-shaped with the finest rays (a ray crossing it more than once would at every finer
     // level too), ear clipping otherwise.

@@ -1521,6 +1521,38 @@ TEST(Graph, AnEndContourStopsAtTheNextVoxelPlane)
     expectTopLevelOnTheIsosurface(smokeCrop({30, 92, 76}, {78, 113, 104}, 0.3), Axis::Y);
 }
 
+// The same crop sliced along z: a blob's contour at z = 94 ends before 96, and in the voxel plane
+// between, its flat top (barely past the isovalue) reaches 2 pixels beyond the contour. The axis
+// through the contour's central point leaves the blob at 95.0, so the end contour a quarter voxel
+// below was a sliver of it, and the cap left that top 2.40 voxels from the mesh. An end that a
+// voxel plane before the next plane shows wider than its contours takes its piece's cells.
+TEST(Graph, AnEndThatAVoxelPlaneShowsWiderTakesItsCells)
+{
+    const Volume volume = smokeCrop({30, 92, 76}, {78, 113, 104}, 0.3);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Z);
+    ASSERT_GT(reconstruction.stats().endPatches, 0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
+}
+
+// A crop of the smoke at iso 0.2, sliced along z: a tube ends past z = 83, its end contour and
+// cap's apex (83.55) a small knob at one side of it, while the voxel plane 84 shows the end's
+// region 2 pixels past the contour at the other side. The voxel planes up to the next plane are
+// looked at, whatever the apex: 2.32 voxels off at the top level before.
+TEST(Graph, AnEndWhoseApexFallsShortOfItsVoxelPlaneTakesItsCells)
+{
+    expectTopLevelOnTheIsosurface(smokeCrop({48, 31, 65}, {96, 63, 111}, 0.2), Axis::Z);
+}
+
+// A crop of the smoke at iso 0.2, sliced along z: a tube starts at z = 64, and in the voxel plane
+// below, 63, its region lies in two parts. The end contour followed one part; the other, against
+// the crop's face, lay a voxel below the contour's cap and reached on to 62.6: 1.40 voxels off at
+// the top level. An end whose voxel plane shows a loop that none of its contours within half a
+// voxel overlaps takes its cells.
+TEST(Graph, AnEndThatPartsBeforeItEndsTakesItsCells)
+{
+    expectTopLevelOnTheIsosurface(smokeCrop({6, 116, 52}, {30, 148, 95}, 0.2), Axis::Z);
+}
+
 // A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
 // 3.6 pixels while the contours' shape changes by 2.2 pixels at most, under the bound for taking
 // a band's cells, and the middle plane's loop splits, so that no plane could be added for the band

@@ -128,6 +128,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"planes_added", stats.addedPlanes},
           {"band_planes", stats.bandPlanes},
           {"band_patches", stats.bandPatches},
+          {"end_patches", stats.endPatches},
           {"cell_matches", stats.cellMatches},
           {"euler", stats.eventEuler},
           {"built_euler", stats.caps - stats.saddles + stats.patchEuler},

@@ -26,6 +26,7 @@
 
 #include <glm/vec3.hpp>
 
+#include <map>
 #include <optional>
 #include <vector>
 
@@ -97,6 +98,8 @@ struct ReconstructionStats {
                                    // strays from the band (splitBand)
     int bandPatches = 0;           // bands meshed from their slab's cells, which stray from them
                                    // where the slab could not be halved (strayingBandPatch)
+    int endPatches = 0;            // tube ends meshed from their piece's cells: no end contour in
+                                   // register, or a voxel plane shows more than the contours (closeEnd)
     int cellMatches = 0;           // ranges between voxel planes cut again where the cells' Euler
                                    // characteristic showed a handle (graph.h)
     int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
@@ -337,6 +340,17 @@ private:
     /// Adds one end contour past the tube's end on that side, if the object reaches on there;
     /// false if it added none (and marks the end unregistered where one was found out of register).
     bool addEndContour(Tube& tube, bool top, bool probeAnyway);
+    /// The tube's end on that side: end contours, or the cells of the graph's piece that ends it
+    /// where end contours leave out what the field shows (`voxelPlanes`: the loops of voxel planes
+    /// traced so far, by w).
+    void closeEnd(Tube& tube, bool top, bool probeAnyway, std::map<double, std::vector<BoundaryLoop>>& voxelPlanes);
+    /// Index in tube.members of the tube's end member on that side that lies on a plane of the
+    /// graph (end contours lie past it).
+    std::size_t graphEnd(const Tube& tube, bool top) const;
+    /// Whether a voxel plane between that end's plane of the graph and its apex (or the graph's
+    /// next plane) shows the end's region more than kEndStray pixels beyond every contour of the end.
+    bool reachesPastContours(const Tube& tube, bool top,
+                             std::map<double, std::vector<BoundaryLoop>>& voxelPlanes) const;
     /// Closes the tube's end on that side by the cells of the graph's piece that ends it there,
     /// where they close it; false, with the end left as it was, if they do not.
     bool patchEnd(Tube& tube, bool top);
