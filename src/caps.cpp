@@ -478,12 +478,14 @@ void Reconstruction::closeEnd(Tube& tube, bool top, bool probeAnyway,
     // isovalue: its end contour a quarter voxel below was a sliver of it, 2.40 voxels off). Where
     // the cells of the graph's piece that ends it close it with the piece's Euler characteristic,
     // they mesh it instead of its end contours, as for a fork or merge.
+    // The end contours of this pass are the last planes; an end with end contours from an earlier
+    // pass (the first found no apex past its end contour) keeps them.
+    const std::size_t added = mPositions.size() - planes, last = graphEnd(tube, top);
+    if ((top ? tube.members.size() - 1 - last : last) != added) return;
     TubeEnd& end = top ? tube.top : tube.bottom;
-    if (!end.hasApex || !(end.unregistered || reachesPastContours(tube, top, voxelPlanes)) || !patchEnd(tube, top))
-        return;
+    if (!(end.unregistered || reachesPastContours(tube, top, voxelPlanes)) || !patchEnd(tube, top)) return;
     end.hasApex = false;
     ++mStats.endPatches;
-    const std::size_t added = mPositions.size() - planes; // the end contours are the last planes
     mPositions.resize(planes);
     mLoops.resize(planes);
     if (top)

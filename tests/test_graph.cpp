@@ -1553,6 +1553,17 @@ TEST(Graph, AnEndThatPartsBeforeItEndsTakesItsCells)
     expectTopLevelOnTheIsosurface(smokeCrop({6, 116, 52}, {30, 148, 95}, 0.2), Axis::Z);
 }
 
+// A crop of the smoke at iso 0.1, sliced along y: a tube's first pass over its end at y = 66 placed
+// an end contour and found no apex past it, and the second pass, which seeks the end from points
+// all over the contour, took the end's cells, and the end contour stayed: 8 edges open and 12
+// shared by four triangles at the coarsest level. An end contour of an earlier pass stays, and
+// so does the end.
+TEST(Graph, AnEndSoughtTwiceKeepsItsFirstEndContour)
+{
+    const Volume volume = smokeCrop({50, 56, 54}, {87, 90, 91}, 0.1);
+    expectEveryLevelAs(slicedAlong(volume, Axis::Y), checkTopology(isosurface(volume, 0.0)));
+}
+
 // A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
 // 3.6 pixels while the contours' shape changes by 2.2 pixels at most, under the bound for taking
 // a band's cells, and the middle plane's loop splits, so that no plane could be added for the band
