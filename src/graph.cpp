@@ -1419,7 +1419,7 @@ bool crossesPolygon(const glm::dvec2& a, const glm::dvec2& b, const std::vector<
 } // namespace
 
 bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
-                   const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole)
+                   const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole, const Keyhole* apart)
 {
     keyhole = Keyhole{};
     const int walls = static_cast<int>(wall.size()), holes = static_cast<int>(hole.size());
@@ -1441,6 +1441,21 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
     std::sort(slits.begin(), slits.end(), [](const Slit& a, const Slit& b) {
         return std::tie(a.length, a.wall, a.hole) < std::tie(b.length, b.wall, b.hole);
     });
+    // Two slits of one ring, one tiled flat from below and one from above, must share no point:
+    // on one spot, their faces lay on each other (a crop of the smoke: a ring merged into and
+    // forked out of, 4 and 8 edges of four triangles at the finer levels). Their segments lie a
+    // point apart at least on both polygons, and their crossings do not cross.
+    const auto clearOfApart = [&](int p, int h) {
+        if (!apart || !apart->open() || apart->wallSize != walls || apart->holeSize != holes) return true;
+        const auto near = [](int a, int b, int n) { return std::min((a - b + n) % n, (b - a + n) % n) <= 1; };
+        if (near(p, apart->wall, walls) || near(h, apart->hole, holes)) return false;
+        const glm::dvec2 &w0 = wall[(p + walls - 1) % walls], &w1 = wall[p], &h0 = hole[h], &h1 = hole[(h + 1) % holes];
+        const glm::dvec2 &v0 = wall[(apart->wall + walls - 1) % walls], &v1 = wall[apart->wall];
+        const glm::dvec2 &g0 = hole[apart->hole], &g1 = hole[(apart->hole + 1) % holes];
+        for (const auto& [a, b] : {std::pair{w0, h0}, std::pair{w1, h1}})
+            if (segmentsCross(a, b, v0, g0) || segmentsCross(a, b, v1, g1)) return false;
+        return true;
+    };
     const double longest = 2.0 * slits.front().length + 4.0;
     double bestBlocked = std::numeric_limits<double>::infinity();
     for (const Slit& slit : slits) {
@@ -1448,7 +1463,9 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
         const glm::dvec2 &w0 = wall[(slit.wall + walls - 1) % walls], &w1 = wall[slit.wall];
         const glm::dvec2 &h0 = hole[slit.hole], &h1 = hole[(slit.hole + 1) % holes];
         // The slit's quadrilateral, counterclockwise, with crossings w0-h0 and w1-h1.
-        if (cross(w1 - w0, h1 - w0) + cross(h1 - w0, h0 - w0) <= 0.0 || segmentsCross(w0, h0, w1, h1)) continue;
+        if (cross(w1 - w0, h1 - w0) + cross(h1 - w0, h0 - w0) <= 0.0 || segmentsCross(w0, h0, w1, h1) ||
+            !clearOfApart(slit.wall, slit.hole))
+            continue;
         const double stretch = blockedStretch(0.5 * (w0 + w1), 0.5 * (h0 + h1), blocked);
         if (stretch >= bestBlocked) continue;
         if (crossesPolygon(w0, h0, wall) || crossesPolygon(w0, h0, hole) || crossesPolygon(w1, h1, wall) ||
@@ -2130,7 +2147,12 @@ bool Reconstruction::splitJunction(Junction& junction) const
     const auto blocked = [&](const glm::dvec2& point) { return plane.sampleAt(point, wPartners) < 0.0; };
     if (!splitIntoArcs(polygon, inner, partners, junction, blocked)) {
         if (!inner) return false;
-        if (chooseKeyhole(polygon, *inner, blocked, junction.keyhole))
+        // The keyhole of a junction on the ring's other side, if one was cut.
+        const Keyhole* apart = nullptr;
+        for (const Junction& other : mJunctions)
+            if (other.single == junction.single && other.inner == junction.inner && other.keyhole.open())
+                apart = &other.keyhole;
+        if (chooseKeyhole(polygon, *inner, blocked, junction.keyhole, apart))
             keyholed = keyholePolygon(polygon, *inner, junction.keyhole);
         if (keyholed.empty() || !splitIntoArcs(keyholed, nullptr, partners, junction)) {
             // No keyhole splits: the hole's cuts nearest the wall's, whatever their chords cross.

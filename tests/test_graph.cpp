@@ -1558,6 +1558,17 @@ TEST(Graph, AnEndThatPartsBeforeItEndsTakesItsCells)
 // all over the contour, took the end's cells, and the end contour stayed: 8 edges open and 12
 // shared by four triangles at the coarsest level. An end contour of an earlier pass stays, and
 // so does the end.
+// A crop of the smoke at iso 0.1, sliced along x: at x = 54.5 a ring (a wall and its hole) is the
+// one contour of a merge from below and of a fork above, and each cut it open by a keyhole. Both
+// took the same slit, whose flat faces, one from below and one from above, lay on each other:
+// from level 2 on, 4 and 8 edges of four triangles and Euler characteristics -6 and -2 against
+// -10. The second slit keeps clear of the first.
+TEST(Graph, ARingCutOpenFromBothSidesIsCutInTwoPlaces)
+{
+    const Volume volume = smokeCrop({40, 142, 41}, {65, 191, 89}, 0.1);
+    expectEveryLevelAs(slicedAlong(volume, Axis::X), checkTopology(isosurface(volume, 0.0)));
+}
+
 TEST(Graph, AnEndSoughtTwiceKeepsItsFirstEndContour)
 {
     const Volume volume = smokeCrop({50, 56, 54}, {87, 90, 91}, 0.1);

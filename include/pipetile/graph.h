@@ -224,9 +224,11 @@ struct Keyhole {
 /// meets its wall): the slit, inside the ring's material (its two crossings cross neither
 /// polygon), along which `blocked` (the partners' plane is inside there) holds over the least
 /// length, then the shortest: the partners' gap that the ring's material closes. False if no
-/// slit crosses neither polygon.
+/// slit crosses neither polygon. A slit is kept clear of `apart` (another junction's keyhole of
+/// the same ring, on its other side), whose flat face in the plane it would otherwise cover.
 bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
-                   const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole);
+                   const std::function<bool(const glm::dvec2&)>& blocked, Keyhole& keyhole,
+                   const Keyhole* apart = nullptr);
 
 /// The keyhole's composite contour, point q being keyhole.at(q)'s.
 std::vector<glm::dvec2> keyholePolygon(const std::vector<glm::dvec2>& wall, const std::vector<glm::dvec2>& hole,
