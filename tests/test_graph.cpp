@@ -1581,6 +1581,18 @@ TEST(Graph, AnEndSoughtTwiceKeepsItsFirstEndContour)
 // alone. Its straight triangles lay 1.24 voxels off at the top level. A band whose middle plane
 // joins it otherwise than one to one has its cells looked at whatever its shape change, and they
 // stray from it: they mesh it.
+// A crop of the smoke at iso 0.1, sliced along z: against the crop's face x = 50 a band from
+// z = 94 to 96 passes a bulge in the voxel plane between, 1.41 pixels past its straight triangles
+// and 1.33 voxels off at the top level. A band whose middle plane's loop lies more than a pixel
+// from it takes that loop as a plane.
+TEST(Graph, ABandWhoseMiddleLoopStraysAPixelTakesItsPlane)
+{
+    const Volume volume = smokeCrop({24, 105, 58}, {50, 129, 97}, 0.1);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Z);
+    ASSERT_GT(reconstruction.stats().bandPlanes, 0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
+}
+
 TEST(Graph, ABandWhoseMiddlePlaneIsNoBandTakesItsCells)
 {
     const Volume volume = smokeCrop({64, 132, 40}, {102, 167, 65}, 0.2);
