@@ -246,9 +246,10 @@ constexpr int kMostEndContours = 8;
 // phantoms' meshes changed).
 constexpr double kPastNextPlane = 0.5;
 
-// Pixels that a voxel plane between an end's last plane of the graph and its cap may show the end's
-// region beyond every contour of that end before the end's cells mesh it: the bands' bound
-// (graph.cpp, kBandStray), as a band's stray past its middle plane's loop.
+// Pixels that a voxel plane between an end's last plane of the graph and the next one may show the
+// end's region beyond every contour of that end before the end's cells mesh it: a voxel, with the
+// margin the bands had (graph.cpp, kBandStray, now a pixel: the ends' bound at a pixel is untried),
+// as a distance across the plane overstates the distance to a surface that leans toward it.
 constexpr double kEndStray = 1.5;
 
 // How far past a tube's last contour its end is sought: a slice spacing and two voxels.

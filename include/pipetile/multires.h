@@ -347,8 +347,9 @@ private:
     /// Index in tube.members of the tube's end member on that side that lies on a plane of the
     /// graph (end contours lie past it).
     std::size_t graphEnd(const Tube& tube, bool top) const;
-    /// Whether a voxel plane between that end's plane of the graph and its apex (or the graph's
-    /// next plane) shows the end's region more than kEndStray pixels beyond every contour of the end.
+    /// Whether a voxel plane between that end's plane of the graph and the graph's next plane shows
+    /// a loop of the end's region more than kEndStray pixels beyond every contour of the end, or
+    /// one that no contour of the end within half a voxel overlaps.
     bool reachesPastContours(const Tube& tube, bool top,
                              std::map<double, std::vector<BoundaryLoop>>& voxelPlanes) const;
     /// Closes the tube's end on that side by the cells of the graph's piece that ends it there,
