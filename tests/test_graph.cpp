@@ -1553,11 +1553,6 @@ TEST(Graph, AnEndThatPartsBeforeItEndsTakesItsCells)
     expectTopLevelOnTheIsosurface(smokeCrop({6, 116, 52}, {30, 148, 95}, 0.2), Axis::Z);
 }
 
-// A crop of the smoke at iso 0.1, sliced along y: a tube's first pass over its end at y = 66 placed
-// an end contour and found no apex past it, and the second pass, which seeks the end from points
-// all over the contour, took the end's cells, and the end contour stayed: 8 edges open and 12
-// shared by four triangles at the coarsest level. An end contour of an earlier pass stays, and
-// so does the end.
 // A crop of the smoke at iso 0.1, sliced along x: at x = 54.5 a ring (a wall and its hole) is the
 // one contour of a merge from below and of a fork above, and each cut it open by a keyhole. Both
 // took the same slit, whose flat faces, one from below and one from above, lay on each other:
@@ -1569,18 +1564,17 @@ TEST(Graph, ARingCutOpenFromBothSidesIsCutInTwoPlaces)
     expectEveryLevelAs(slicedAlong(volume, Axis::X), checkTopology(isosurface(volume, 0.0)));
 }
 
+// A crop of the smoke at iso 0.1, sliced along y: a tube's first pass over its end at y = 66 placed
+// an end contour and found no apex past it, and the second pass, which seeks the end from points
+// all over the contour, took the end's cells, and the end contour stayed: 8 edges open and 12
+// shared by four triangles at the coarsest level. An end contour of an earlier pass stays, and
+// so does the end.
 TEST(Graph, AnEndSoughtTwiceKeepsItsFirstEndContour)
 {
     const Volume volume = smokeCrop({50, 56, 54}, {87, 90, 91}, 0.1);
     expectEveryLevelAs(slicedAlong(volume, Axis::Y), checkTopology(isosurface(volume, 0.0)));
 }
 
-// A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
-// 3.6 pixels while the contours' shape changes by 2.2 pixels at most, under the bound for taking
-// a band's cells, and the middle plane's loop splits, so that no plane could be added for the band
-// alone. Its straight triangles lay 1.24 voxels off at the top level. A band whose middle plane
-// joins it otherwise than one to one has its cells looked at whatever its shape change, and they
-// stray from it: they mesh it.
 // A crop of the smoke at iso 0.1, sliced along z: against the crop's face x = 50 a band from
 // z = 94 to 96 passes a bulge in the voxel plane between, 1.41 pixels past its straight triangles
 // and 1.33 voxels off at the top level. A band whose middle plane's loop lies more than a pixel
@@ -1593,6 +1587,12 @@ TEST(Graph, ABandWhoseMiddleLoopStraysAPixelTakesItsPlane)
     expectTopLevelOnTheIsosurface(volume, reconstruction);
 }
 
+// A crop of the smoke at iso 0.2, sliced along x: between x = 66 and 67 a bump on a contour moves
+// 3.6 pixels while the contours' shape changes by 2.2 pixels at most, under the bound for taking
+// a band's cells, and the middle plane's loop splits, so that no plane could be added for the band
+// alone. Its straight triangles lay 1.24 voxels off at the top level. A band whose middle plane
+// joins it otherwise than one to one has its cells looked at whatever its shape change, and they
+// stray from it: they mesh it.
 TEST(Graph, ABandWhoseMiddlePlaneIsNoBandTakesItsCells)
 {
     const Volume volume = smokeCrop({64, 132, 40}, {102, 167, 65}, 0.2);
