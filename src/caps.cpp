@@ -248,8 +248,9 @@ constexpr double kPastNextPlane = 0.5;
 
 // Pixels that a voxel plane between an end's last plane of the graph and the next one may show the
 // end's region beyond every contour of that end before the end's cells mesh it: a voxel, with the
-// margin the bands had (graph.cpp, kBandStray, now a pixel: the ends' bound at a pixel is untried),
-// as a distance across the plane overstates the distance to a surface that leans toward it.
+// margin the bands had (graph.cpp, kBandStray, now a pixel), as a distance across the plane
+// overstates the distance to a surface that leans toward it. At a pixel, none of the 13 random
+// crops of the smoke still over a voxel at the top level came nearer, and the phantoms were the same.
 constexpr double kEndStray = 1.5;
 
 // How far past a tube's last contour its end is sought: a slice spacing and two voxels.
