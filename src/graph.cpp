@@ -1814,9 +1814,13 @@ void Reconstruction::resolveEvents()
                 // too puts the slit inside the surface, which closes the hole beyond that plane (a
                 // ring tree: no slit clear of it, 6 pixels blocked, 1.48 voxels off at the top
                 // level). The piece's cells mesh it instead, where they close.
-                if (junction.keyhole.blocked > kMaxBlocked) {
+                // So does a fork or merge whose parts strayed from the isosurface at the top level
+                // of a first build (strayingJunctions).
+                const bool strayed = mCellJunctions.count(keyOf(junction)) > 0;
+                if (junction.keyhole.blocked > kMaxBlocked || strayed) {
                     cells();
                     if (patch && patch->euler == piece.euler()) {
+                        mStats.junctionPatches += strayed ? 1 : 0;
                         joinPatch(slab, piece, std::move(*patch));
                         continue;
                     }

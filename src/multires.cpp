@@ -210,7 +210,28 @@ void checkMeshOptions(const MeshOptions& options)
     if (options.threads < 0) throw UsageError("the threads must be 0 (all cores) or more", {Setting::Threads});
 }
 
-Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options) : mVolume(volume), mOptions(options)
+Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
+    : Reconstruction(volume, options, std::set<JunctionKey>{})
+{
+    // A fork's or merge's part in a slab half a voxel thick can fan a contour's loop to a few
+    // points of the single contour voxels away (a crop of the smoke at iso 0.2: a loop 7 pixels
+    // across, 1.50 voxels off at the top level). The top level's junctions are tiled once here,
+    // and where any strays more than a voxel from the isosurface, the skeleton is built again with
+    // those pieces from their cells. Every level is built from that second skeleton alone.
+    const Clock::time_point start = Clock::now();
+    std::set<JunctionKey> straying = strayingJunctions();
+    double seconds = mStats.seconds + secondsSince(start); // the first build and its junctions' tiling
+    if (!straying.empty()) {
+        *this = Reconstruction(volume, options, std::move(straying));
+        seconds += mStats.seconds;
+    }
+    mStats.seconds = seconds;
+}
+
+Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options, std::set<JunctionKey> cellJunctions)
+    : mVolume(volume),
+      mOptions(options),
+      mCellJunctions(std::move(cellJunctions))
 {
     const Clock::time_point start = Clock::now();
     checkMeshOptions(options);
@@ -832,6 +853,10 @@ class Reconstruction::Assembly {
 public:
     Assembly(const Reconstruction& reconstruction, const Contours& contours, int level);
     LevelMesh build(const std::vector<glm::dvec3>& coarser);
+    /// Per junction, whether a point of its triangles lies farther than `reach` voxels from the
+    /// isosurface. A triangle within that of one of its corners everywhere (which lie on it) does
+    /// not; elsewhere, points a third of the reach apart are asked (Volume::surfaceWithin).
+    std::vector<bool> strayingJunctions(double reach);
 
 private:
     // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
@@ -1683,6 +1708,57 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         }
     }
     return std::move(result);
+}
+
+std::vector<bool> Reconstruction::Assembly::strayingJunctions(double reach)
+{
+    buildTrees();
+    const double voxel = mVolume.smallestVoxel(), within = reach * voxel;
+    // A flat surface within 0.88 of surfaceWithin's radius always shows: so does one within reach.
+    const double radius = reach / 0.88;
+    const auto strays = [&](const Triangle& t) {
+        const glm::dvec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+        const double longest =
+            std::sqrt(std::max({glm::dot(b - a, b - a), glm::dot(c - b, c - b), glm::dot(a - c, a - c)}));
+        // Every point lies within longest / sqrt 3 of a corner.
+        if (longest <= std::sqrt(3.0) * within) return false;
+        const int steps = std::min(static_cast<int>(std::ceil(3.0 * longest / within)), 64);
+        for (int i = 0; i <= steps; ++i)
+            for (int j = 0; i + j <= steps; ++j) {
+                const double u = static_cast<double>(i) / steps, v = static_cast<double>(j) / steps;
+                const glm::dvec3 p = a + u * (b - a) + v * (c - a);
+                if (glm::distance(p, a) <= within || glm::distance(p, b) <= within || glm::distance(p, c) <= within)
+                    continue;
+                if (!mVolume.surfaceWithin(p, radius)) return true;
+            }
+        return false;
+    };
+    std::vector<bool> straying(mJunctions.size(), false);
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) {
+        const std::size_t first = mesh.triangles.size();
+        tileJunction(j);
+        straying[j] =
+            std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(), strays);
+    }
+    return straying;
+}
+
+Reconstruction::JunctionKey Reconstruction::keyOf(const Junction& junction)
+{
+    return {static_cast<int>(junction.kind), junction.single.first, junction.single.second};
+}
+
+std::set<Reconstruction::JunctionKey> Reconstruction::strayingJunctions() const
+{
+    std::set<JunctionKey> keys;
+    if (mJunctions.empty() || mOptions.tiler != TilerKind::ContourTree) return keys;
+    // The top level's bound, a voxel.
+    constexpr double kJunctionStray = 1.0;
+    const int top = mOptions.levels - 1;
+    const std::vector<bool> straying = Assembly(*this, castLevel(top), top).strayingJunctions(kJunctionStray);
+    for (std::size_t j = 0; j < mJunctions.size(); ++j)
+        if (straying[j] && mJunctions[j].kind != EventKind::Rim) keys.insert(keyOf(mJunctions[j]));
+    return keys;
 }
 
 LevelMesh Reconstruction::assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const

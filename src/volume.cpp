@@ -470,6 +470,23 @@ double Volume::signedField(const glm::dvec3& world) const
     return mImpl->volumeClass == VolumeClass::LevelSet ? v - mImpl->iso : mImpl->iso - v;
 }
 
+bool Volume::surfaceWithin(const glm::dvec3& world, double radius) const
+{
+    const openvdb::Vec3d index = mImpl->grid->transform().worldToIndex(openvdb::Vec3d(world.x, world.y, world.z));
+    const openvdb::FloatGrid::ConstAccessor accessor = mImpl->grid->getConstAccessor();
+    const bool above = openvdb::tools::BoxSampler::sample(accessor, index) > mImpl->iso;
+    for (int x = -1; x <= 1; ++x)
+        for (int y = -1; y <= 1; ++y)
+            for (int z = -1; z <= 1; ++z) {
+                if (x == 0 && y == 0 && z == 0) continue;
+                const openvdb::Vec3d direction = openvdb::Vec3d(x, y, z).unitSafe();
+                for (const double r : {0.5 * radius, radius})
+                    if ((openvdb::tools::BoxSampler::sample(accessor, index + r * direction) > mImpl->iso) != above)
+                        return true;
+            }
+    return false;
+}
+
 glm::dvec3 Volume::fieldGradient(const glm::dvec3& world) const
 {
     const openvdb::math::Transform& transform = mImpl->grid->transform();

@@ -1553,6 +1553,20 @@ TEST(Graph, AnEndThatPartsBeforeItEndsTakesItsCells)
     expectTopLevelOnTheIsosurface(smokeCrop({6, 116, 52}, {30, 148, 95}, 0.2), Axis::Z);
 }
 
+// A crop of the smoke at iso 0.2, sliced along z: in the slab from 51 to 51.5, three contours
+// merge into one. The part of the single contour that one of them got was a few points at its
+// side, and the merge fanned that contour's whole loop, 7 pixels across, to them: triangles
+// nearly flat across the slab, 1.50 voxels off at the top level. The top level's junctions are
+// now tiled once first, and this one, straying more than a voxel from the isosurface, takes its
+// piece's cells: 0.74.
+TEST(Graph, AJunctionWhosePartsStrayFromTheSurfaceTakesItsCells)
+{
+    const Volume volume = smokeCrop({31, 20, 40}, {64, 53, 87}, 0.2);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Z);
+    ASSERT_GT(reconstruction.stats().junctionPatches, 0);
+    expectTopLevelOnTheIsosurface(volume, reconstruction);
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: at x = 54.5 a ring (a wall and its hole) is the
 // one contour of a merge from below and of a fork above, and each cut it open by a keyhole. Both
 // took the same slit, whose flat faces, one from below and one from above, lay on each other:

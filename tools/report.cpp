@@ -129,6 +129,7 @@ json meshReport(const Volume& volume, const Reconstruction& reconstruction)
           {"band_planes", stats.bandPlanes},
           {"band_patches", stats.bandPatches},
           {"end_patches", stats.endPatches},
+          {"junction_patches", stats.junctionPatches},
           {"cell_matches", stats.cellMatches},
           {"euler", stats.eventEuler},
           {"built_euler", stats.caps - stats.saddles + stats.patchEuler},

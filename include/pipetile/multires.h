@@ -26,8 +26,10 @@
 
 #include <glm/vec3.hpp>
 
+#include <array>
 #include <map>
 #include <optional>
+#include <set>
 #include <vector>
 
 namespace pipetile {
@@ -100,6 +102,8 @@ struct ReconstructionStats {
                                    // where the slab could not be halved (strayingBandPatch)
     int endPatches = 0;            // tube ends meshed from their piece's cells: no end contour in
                                    // register, or a voxel plane shows more than the contours (closeEnd)
+    int junctionPatches = 0;       // forks and merges meshed from their slab's cells: their parts
+                                   // strayed from the isosurface at the top level (strayingJunctions)
     int cellMatches = 0;           // ranges between voxel planes cut again where the cells' Euler
                                    // characteristic showed a handle (graph.h)
     int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
@@ -207,6 +211,12 @@ public:
 private:
     friend class Refinement;
     using Contours = std::vector<std::vector<Contour>>; // per plane, per loop
+    /// A fork or merge: its kind, and its single contour's plane and loop.
+    using JunctionKey = std::array<int, 3>;
+    /// The stages below, with the forks and merges `cellJunctions` names meshed from their slab's
+    /// cells where those close (resolveEvents).
+    Reconstruction(const Volume& volume, const MeshOptions& options, std::set<JunctionKey> cellJunctions);
+
     Contours castLevel(int level) const;
     /// `coarse`'s contours refined to `level`; a contour it skipped is cast with its group's rays.
     Contours refineContours(const Contours& coarse, int level) const;
@@ -239,6 +249,11 @@ private:
     struct Patch;
     struct SliceCounts;
     struct BandMiddle;
+
+    static JunctionKey keyOf(const Junction& junction);
+    /// The forks and merges whose parts, tiled at the top level, stray more than a voxel from the
+    /// isosurface (Assembly::strayingJunctions), as far as the field shows (Volume::surfaceWithin).
+    std::set<JunctionKey> strayingJunctions() const;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
     /// (no field traced it); refined from `coarse` likewise.
@@ -400,6 +415,7 @@ private:
     ContourGraph mGraph;
     std::optional<EulerProfile> mCells; // counted where the graph needed it (correspond())
     ReconstructionStats mStats;
+    std::set<JunctionKey> mCellJunctions;
 };
 
 /// Stateful: the contours of the current level, refined in place to the next (paper §4.3). Each

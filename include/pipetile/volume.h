@@ -86,6 +86,12 @@ public:
     /// inverse transpose Jacobian. It points outward for both classes; (0, 0, 0) where the field
     /// is flat (farther than the narrow band reaches from the surface).
     glm::dvec3 fieldGradient(const glm::dvec3& world) const;
+    /// Whether the isosurface (where the trilinear field changes side) comes within `radius` index
+    /// voxels of a world point, as far as samples show: the point's side against those of the
+    /// points at half and the whole radius along 26 directions (to the faces, edges and corners of
+    /// a cube). A flat surface within 0.88 of the radius always shows; a speck between the
+    /// directions may not.
+    bool surfaceWithin(const glm::dvec3& world, double radius) const;
 
     const Impl& impl() const { return *mImpl; }
     bool valid() const { return static_cast<bool>(mImpl); }
