@@ -978,6 +978,17 @@ double deepestCommonPoint(const BoundaryLoop& loop, const std::vector<const std:
     return best;
 }
 
+double profileChange(const RadialProfile& p, const RadialProfile& q)
+{
+    double change = 0.0;
+    for (std::size_t d = 0; d < p.nearest.size() && d < q.nearest.size(); ++d) {
+        // A direction without crossings holds infinities on one side: an infinite change.
+        const double near = std::abs(p.nearest[d] - q.nearest[d]), far = std::abs(p.farthest[d] - q.farthest[d]);
+        change = std::max({change, std::isnan(near) ? 0.0 : near, std::isnan(far) ? 0.0 : far});
+    }
+    return change;
+}
+
 RadialProfile radialProfile(const LoopView& view, int directions)
 {
     RadialProfile profile;

@@ -888,15 +888,7 @@ std::vector<std::optional<SlabPatch>> patchPieces(const Volume& volume, const Sl
 double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b)
 {
     if (below.profiles.empty() || above.profiles.empty()) return 0.0;
-    const RadialProfile& p = *below.profiles[a];
-    const RadialProfile& q = *above.profiles[b];
-    double change = 0.0;
-    for (std::size_t d = 0; d < p.nearest.size() && d < q.nearest.size(); ++d) {
-        // A direction without crossings holds infinities on one side: an infinite change.
-        const double near = std::abs(p.nearest[d] - q.nearest[d]), far = std::abs(p.farthest[d] - q.farthest[d]);
-        change = std::max({change, std::isnan(near) ? 0.0 : near, std::isnan(far) ? 0.0 : far});
-    }
-    return change;
+    return profileChange(*below.profiles[a], *above.profiles[b]);
 }
 
 long long EulerProfile::total() const
@@ -1482,15 +1474,11 @@ bool chooseKeyhole(const std::vector<glm::dvec2>& wall, const std::vector<glm::d
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// Slabs holding an event are halved until at most this thick, in voxels (correspond()).
-constexpr double kEventThickness = 0.5;
 
 // Pixels of a keyhole's slit that may lie where the partners' plane is inside before its junction
 // goes to the cells (resolveEvents): as many as a junction's chords may cross (graph.cpp,
 // cutsNearest).
 constexpr double kMaxBlocked = 1.0;
-// Pixels a band's contours may change shape by before its slab is halved (correspond()).
-constexpr double kShapeChange = 3.0;
 // Pixels the isosurface may lie from a band's straight triangles, between its planes, before the
 // band takes a plane between (splitBand) or its cells (strayingBandPatch): the top level's bound,
 // a voxel. A distance across the plane overstates the distance to a surface that leans toward
@@ -1758,6 +1746,12 @@ void Reconstruction::resolveEvents()
                 // a crop of the smoke, whose contours change by 2.2 pixels at most, had a bump
                 // that moves 3.6 pixels in a voxel fanned 1.24 voxels off.
                 std::optional<SlabPatch> cells = strayingBandPatch(slab, piece, false);
+                // A band whose top level strayed from the isosurface in a first build
+                // (strayingPieces) takes its cells, where they close as an annulus.
+                if (!cells && mCellPieces.bands.count({slab.below, piece.below[0]}) > 0) {
+                    cells = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+                    if (cells && cells->euler != piece.euler()) cells.reset();
+                }
                 std::vector<int> steps;
                 if (!cells && !splitBand(slab.below, piece.below[0], slab.above, piece.above[0], middle, steps))
                     cells = strayingBandPatch(slab, piece, true);
@@ -1815,8 +1809,8 @@ void Reconstruction::resolveEvents()
                 // ring tree: no slit clear of it, 6 pixels blocked, 1.48 voxels off at the top
                 // level). The piece's cells mesh it instead, where they close.
                 // So does a fork or merge whose parts strayed from the isosurface at the top level
-                // of a first build (strayingJunctions).
-                const bool strayed = mCellJunctions.count(keyOf(junction)) > 0;
+                // of a first build (strayingPieces).
+                const bool strayed = mCellPieces.junctions.count(keyOf(junction)) > 0;
                 if (junction.keyhole.blocked > kMaxBlocked || strayed) {
                     cells();
                     if (patch && patch->euler == piece.euler()) {
@@ -1906,6 +1900,20 @@ void Reconstruction::patchPastTheBox(SlabPiece& piece, bool top, const std::vect
     const int id = addPatch(top ? s : -1, top ? -1 : s, piece, std::move(*surface));
     for (int l : top ? piece.below : piece.above)
         (top ? mTubes[tubeOf[s][l]].top : mTubes[tubeOf[s][l]].bottom).patch = id;
+}
+
+bool Reconstruction::cellsClose(int s, int l, bool lowerSide) const
+{
+    for (const ContourGraph::Slab& slab : mGraph.slabs) {
+        if ((lowerSide ? slab.below : slab.above) != s) continue;
+        for (const SlabPiece& piece : slab.pieces) {
+            const std::vector<int>& loops = lowerSide ? piece.below : piece.above;
+            if (std::find(loops.begin(), loops.end(), l) == loops.end()) continue;
+            const std::optional<SlabPatch> patch = std::move(patchesOf(slab.below, slab.above, {&piece}).front());
+            return patch && patch->euler == piece.euler();
+        }
+    }
+    return false;
 }
 
 bool Reconstruction::makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const

@@ -211,16 +211,18 @@ void checkMeshOptions(const MeshOptions& options)
 }
 
 Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
-    : Reconstruction(volume, options, std::set<JunctionKey>{})
+    : Reconstruction(volume, options, StrayingPieces{})
 {
     // A fork's or merge's part in a slab half a voxel thick can fan a contour's loop to a few
     // points of the single contour voxels away (a crop of the smoke at iso 0.2: a loop 7 pixels
-    // across, 1.50 voxels off at the top level). The top level's junctions are tiled once here,
-    // and where any strays more than a voxel from the isosurface, the skeleton is built again with
-    // those pieces from their cells. Every level is built from that second skeleton alone.
+    // across, 1.50 voxels off at the top level), and a band between contours of different shapes
+    // one vertex to an arc (an arm grown between the planes: 1.45). The top level's junctions and
+    // such bands are tiled once here, and where any strays more than a voxel from the
+    // isosurface, the skeleton is built again with those pieces from their cells. Every level is
+    // built from that second skeleton alone.
     const Clock::time_point start = Clock::now();
-    std::set<JunctionKey> straying = strayingJunctions();
-    double seconds = mStats.seconds + secondsSince(start); // the first build and its junctions' tiling
+    StrayingPieces straying = strayingPieces();
+    double seconds = mStats.seconds + secondsSince(start); // the first build and its tiling
     if (!straying.empty()) {
         *this = Reconstruction(volume, options, std::move(straying));
         seconds += mStats.seconds;
@@ -228,10 +230,10 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     mStats.seconds = seconds;
 }
 
-Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options, std::set<JunctionKey> cellJunctions)
+Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options, StrayingPieces cellPieces)
     : mVolume(volume),
       mOptions(options),
-      mCellJunctions(std::move(cellJunctions))
+      mCellPieces(std::move(cellPieces))
 {
     const Clock::time_point start = Clock::now();
     checkMeshOptions(options);
@@ -853,10 +855,13 @@ class Reconstruction::Assembly {
 public:
     Assembly(const Reconstruction& reconstruction, const Contours& contours, int level);
     LevelMesh build(const std::vector<glm::dvec3>& coarser);
-    /// Per junction, whether a point of its triangles lies farther than `reach` voxels from the
-    /// isosurface. A triangle within that of one of its corners everywhere (which lie on it) does
-    /// not; elsewhere, points a third of the reach apart are asked (Volume::surfaceWithin).
+    /// Per junction, whether a triangle of its parts lies farther than `reach` voxels from the
+    /// isosurface (straysFrom).
     std::vector<bool> strayingJunctions(double reach);
+    /// The band between two contours as tileSides gives it, over `vertices`: the lower contour's
+    /// crossings in world space, then the upper one's (band-local ids).
+    static std::vector<Triangle> bandOf(const Contour& lower, const Contour& upper,
+                                        const std::vector<glm::dvec3>& vertices);
 
 private:
     // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
@@ -908,6 +913,10 @@ private:
     // `byArea`: the contour trees' band was out of register and the least-area tiler's was taken.
     std::vector<Triangle> tileSides(const Side& lowerSide, const Side& upperSide, std::size_t& bytes,
                                     bool& byArea) const;
+    // The contour trees' band (the paper's tiler), each tree ranked against the other; none where
+    // it is out of register.
+    static std::optional<std::vector<Triangle>> tileByTrees(const Side& lowerSide, const Side& upperSide,
+                                                            std::size_t& bytes);
     // A toroidal tiler's band over the contours' world-space points: the baselines', and the
     // contour trees' fallback.
     using ToroidalTiler = std::vector<Triangle> (*)(const std::vector<glm::dvec3>&, const std::vector<glm::dvec3>&,
@@ -1235,39 +1244,45 @@ std::vector<Triangle> Reconstruction::Assembly::tileSides(const Side& lowerSide,
 {
     byArea = false;
     if (mOptions.tiler == TilerKind::ContourTree) {
-        // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge
-        // closest to the upper contour's, then the upper one the F edge closest to that
-        // choice. Ranking each contour once, against the contour below it only, carried a
-        // choice made for one band into the next, where the upper contour's sector can hold
-        // the other F edge (bean: the arm tip grows past a ray between two slices) and the
-        // traversal then paired the tip with the hole's wall.
-        const ContourTree* lower = lowerSide.tree;
-        const ContourTree* upper = upperSide.tree;
-        std::unique_ptr<ContourTree> rankedLower, rankedUpper;
-        if (lower->ambiguousSectors() > 0) {
-            rankedLower = std::make_unique<ContourTree>(
-                *lowerSide.string,
-                rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
-            lower = rankedLower.get();
-            bytes += lower->bytes();
-        }
-        if (upper->ambiguousSectors() > 0) {
-            rankedUpper = std::make_unique<ContourTree>(
-                *upperSide.string,
-                rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
-            upper = rankedUpper.get();
-            bytes += upper->bytes();
-        }
-        std::vector<Triangle> band = tileBand(*lower, *upper);
+        if (std::optional<std::vector<Triangle>> band = tileByTrees(lowerSide, upperSide, bytes))
+            return std::move(*band);
         // Two noisy contours whose excursions the contour trees parse differently can be paired
         // far out of register (a ring tree's notch: crossings 12 pixels apart, 1.4 voxels off
         // the surface): such a band, or junction part, is tiled by area instead, ties broken by
         // the shorter spans (tileLeastAreaNearest).
-        if (!outOfRegister(band, lowerSide, upperSide)) return band;
         byArea = true;
         return tileToroidal(lowerSide, upperSide, bytes, tileLeastAreaNearest);
     }
     return tileToroidal(lowerSide, upperSide, bytes, mOptions.tiler == TilerKind::Greedy ? tileGreedy : tileOptimal);
+}
+
+std::optional<std::vector<Triangle>> Reconstruction::Assembly::tileByTrees(const Side& lowerSide, const Side& upperSide,
+                                                                           std::size_t& bytes)
+{
+    // Rule [1'] per band: the lower contour keeps in each ambiguous sector the F edge closest to
+    // the upper contour's, then the upper one the F edge closest to that choice. Ranking each
+    // contour once, against the contour below it only, carried a choice made for one band into
+    // the next, where the upper contour's sector can hold the other F edge (bean: the arm tip
+    // grows past a ray between two slices) and the traversal then paired the tip with the hole's
+    // wall.
+    const ContourTree* lower = lowerSide.tree;
+    const ContourTree* upper = upperSide.tree;
+    std::unique_ptr<ContourTree> rankedLower, rankedUpper;
+    if (lower->ambiguousSectors() > 0) {
+        rankedLower = std::make_unique<ContourTree>(
+            *lowerSide.string, rankAgainstNeighbour(*lowerSide.contour, *lowerSide.string, *upperSide.contour, *upper));
+        lower = rankedLower.get();
+        bytes += lower->bytes();
+    }
+    if (upper->ambiguousSectors() > 0) {
+        rankedUpper = std::make_unique<ContourTree>(
+            *upperSide.string, rankAgainstNeighbour(*upperSide.contour, *upperSide.string, *lowerSide.contour, *lower));
+        upper = rankedUpper.get();
+        bytes += upper->bytes();
+    }
+    std::vector<Triangle> band = tileBand(*lower, *upper);
+    if (outOfRegister(band, lowerSide, upperSide)) return std::nullopt;
+    return band;
 }
 
 std::vector<Triangle> Reconstruction::Assembly::tileToroidal(const Side& lowerSide, const Side& upperSide,
@@ -1710,55 +1725,129 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     return std::move(result);
 }
 
+namespace {
+
+// The point of triangle abc farthest from its corners: its circumcentre where that lies inside
+// (no angle is obtuse), else the middle of its longest edge.
+glm::dvec3 farthestFromCorners(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const glm::dvec3 ab = b - a, ac = c - a, bc = c - b;
+    const double ab2 = glm::dot(ab, ab), ac2 = glm::dot(ac, ac), bc2 = glm::dot(bc, bc);
+    if (ab2 >= ac2 + bc2) return 0.5 * (a + b);
+    if (ac2 >= ab2 + bc2) return 0.5 * (a + c);
+    if (bc2 >= ab2 + ac2) return 0.5 * (b + c);
+    const glm::dvec3 n = glm::cross(ab, ac);
+    return a + (ab2 * glm::cross(ac, n) + ac2 * glm::cross(n, ab)) / (2.0 * glm::dot(n, n));
+}
+
+// Whether triangle t of `vertices` lies farther than `reach` voxels from the isosurface at its
+// point farthest from its corners (which lie on the surface), as far as the field shows.
+bool straysFrom(const Volume& volume, const std::vector<glm::dvec3>& vertices, const Triangle& t, double reach)
+{
+    const glm::dvec3 p = farthestFromCorners(vertices[t[0]], vertices[t[1]], vertices[t[2]]);
+    // A flat surface within 0.88 of surfaceWithin's radius always shows: so does one within reach.
+    return glm::distance(p, vertices[t[0]]) > reach * volume.smallestVoxel() && !volume.surfaceWithin(p, reach / 0.88);
+}
+
+// Whether a band between contours of profiles `lower` and `upper`, `thickness` apart, may fan one
+// vertex to an arc across its slab and take its cells instead: as strayingBandPatch asks, one in a
+// slab thicker than the events' whose contours change shape by more than kShapeChange (a fan
+// joins contours that differ by about the arc's reach). The cells of a thinner slab leave needles
+// (two capsule trees sliced along x: up to 734 where such bands took them).
+bool mayFan(const RadialProfile& lower, const RadialProfile& upper, double thickness)
+{
+    return thickness > kEventThickness && profileChange(lower, upper) > kShapeChange;
+}
+
+} // namespace
+
 std::vector<bool> Reconstruction::Assembly::strayingJunctions(double reach)
 {
     buildTrees();
-    const double voxel = mVolume.smallestVoxel(), within = reach * voxel;
-    // A flat surface within 0.88 of surfaceWithin's radius always shows: so does one within reach.
-    const double radius = reach / 0.88;
-    const auto strays = [&](const Triangle& t) {
-        const glm::dvec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-        const double longest =
-            std::sqrt(std::max({glm::dot(b - a, b - a), glm::dot(c - b, c - b), glm::dot(a - c, a - c)}));
-        // Every point lies within longest / sqrt 3 of a corner.
-        if (longest <= std::sqrt(3.0) * within) return false;
-        const int steps = std::min(static_cast<int>(std::ceil(3.0 * longest / within)), 64);
-        for (int i = 0; i <= steps; ++i)
-            for (int j = 0; i + j <= steps; ++j) {
-                const double u = static_cast<double>(i) / steps, v = static_cast<double>(j) / steps;
-                const glm::dvec3 p = a + u * (b - a) + v * (c - a);
-                if (glm::distance(p, a) <= within || glm::distance(p, b) <= within || glm::distance(p, c) <= within)
-                    continue;
-                if (!mVolume.surfaceWithin(p, radius)) return true;
-            }
-        return false;
-    };
     std::vector<bool> straying(mJunctions.size(), false);
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         const std::size_t first = mesh.triangles.size();
         tileJunction(j);
-        straying[j] =
-            std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(), strays);
+        straying[j] = std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
+                                  [&](const Triangle& t) { return straysFrom(mVolume, mesh.vertices, t, reach); });
     }
     return straying;
 }
 
-Reconstruction::JunctionKey Reconstruction::keyOf(const Junction& junction)
+std::vector<Triangle> Reconstruction::Assembly::bandOf(const Contour& lower, const Contour& upper,
+                                                       const std::vector<glm::dvec3>& vertices)
+{
+    const ContourString lowerString = contourString(lower), upperString = contourString(upper);
+    const ContourTree lowerTree(lowerString), upperTree(upperString);
+    const std::uint32_t m = static_cast<std::uint32_t>(lower.crossings.size());
+    std::size_t bytes = 0;
+    if (std::optional<std::vector<Triangle>> band =
+            tileByTrees(Side{&lower, &lowerString, &lowerTree, 0}, Side{&upper, &upperString, &upperTree, m}, bytes))
+        return std::move(*band);
+    const std::vector<glm::dvec3> a(vertices.begin(), vertices.begin() + m), b(vertices.begin() + m, vertices.end());
+    return withoutFullFans(tileLeastAreaNearest(a, b), m, static_cast<std::uint32_t>(b.size()));
+}
+
+std::array<int, 3> Reconstruction::keyOf(const Junction& junction)
 {
     return {static_cast<int>(junction.kind), junction.single.first, junction.single.second};
 }
 
-std::set<Reconstruction::JunctionKey> Reconstruction::strayingJunctions() const
+Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
 {
-    std::set<JunctionKey> keys;
-    if (mJunctions.empty() || mOptions.tiler != TilerKind::ContourTree) return keys;
+    StrayingPieces straying;
+    if (mOptions.tiler != TilerKind::ContourTree) return straying;
     // The top level's bound, a voxel.
-    constexpr double kJunctionStray = 1.0;
+    constexpr double kStray = 1.0;
     const int top = mOptions.levels - 1;
-    const std::vector<bool> straying = Assembly(*this, castLevel(top), top).strayingJunctions(kJunctionStray);
-    for (std::size_t j = 0; j < mJunctions.size(); ++j)
-        if (straying[j] && mJunctions[j].kind != EventKind::Rim) keys.insert(keyOf(mJunctions[j]));
-    return keys;
+    const RaySet rays{mOptions.baseRays, top};
+    // The bands that may fan, each from its own two contours with the top level's rays (the rays
+    // the level adds at folds left out): only those, so a tube that changes slowly costs nothing.
+    std::map<std::pair<int, int>, Contour> contours;
+    const auto contourOf = [&](const std::pair<int, int>& loop) -> const Contour& {
+        auto it = contours.find(loop);
+        if (it == contours.end()) {
+            const SlicePlane plane(mVolume, mPlan, mPositions[loop.first]);
+            it = contours.emplace(loop, cut(mLoops[loop.first][loop.second], rays, plane)).first;
+        }
+        return it->second;
+    };
+    for (const Tube& tube : mTubes) {
+        std::vector<std::pair<int, int>> kept; // the members the top level keeps
+        for (const auto& m : tube.members)
+            if (mLoops[m.first][m.second].fromLevel <= top) kept.push_back(m);
+        for (std::size_t k = 1; k < kept.size(); ++k) {
+            const auto lower = kept[k - 1], upper = kept[k];
+            if (!mayFan(mLoops[lower.first][lower.second].profile, mLoops[upper.first][upper.second].profile,
+                        std::abs(mPositions[upper.first] - mPositions[lower.first])))
+                continue;
+            const Contour& a = contourOf(lower);
+            const Contour& b = contourOf(upper);
+            if (a.crossings.empty() || b.crossings.empty()) continue;
+            std::vector<glm::dvec3> vertices;
+            for (const auto& [c, plane] : {std::pair{&a, lower.first}, std::pair{&b, upper.first}})
+                for (const Crossing& x : c->crossings)
+                    vertices.push_back(mVolume.indexToWorld(planeToIndex(mPlan.axis, x.point, mPositions[plane])));
+            const std::vector<Triangle> band = Assembly::bandOf(a, b, vertices);
+            if (std::any_of(band.begin(), band.end(),
+                            [&](const Triangle& t) { return straysFrom(mVolume, vertices, t, kStray); }))
+                straying.bands.insert(lower);
+        }
+    }
+    // The junctions, as the top level tiles them.
+    if (!mJunctions.empty()) {
+        const std::vector<bool> junctions = Assembly(*this, castLevel(top), top).strayingJunctions(kStray);
+        for (std::size_t j = 0; j < mJunctions.size(); ++j)
+            if (junctions[j] && mJunctions[j].kind != EventKind::Rim) straying.junctions.insert(keyOf(mJunctions[j]));
+    }
+    // Those whose cells would not close leave the skeleton as it is: no second build for them.
+    for (auto it = straying.bands.begin(); it != straying.bands.end();)
+        it = cellsClose(it->first, it->second, true) ? std::next(it) : straying.bands.erase(it);
+    for (auto it = straying.junctions.begin(); it != straying.junctions.end();)
+        it = cellsClose((*it)[1], (*it)[2], (*it)[0] == static_cast<int>(EventKind::Fork))
+                 ? std::next(it)
+                 : straying.junctions.erase(it);
+    return straying;
 }
 
 LevelMesh Reconstruction::assemble(const Contours& contours, int level, const std::vector<glm::dvec3>& coarser) const

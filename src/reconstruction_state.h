@@ -16,6 +16,12 @@
 
 namespace pipetile {
 
+// Slabs holding an event are halved until at most this thick, in voxels (correspond()). A band's
+// cells in a slab no thicker leave needles (strayingBandPatch).
+constexpr double kEventThickness = 0.5;
+// Pixels a band's contours may change shape by before its slab is halved (correspond()).
+constexpr double kShapeChange = 3.0;
+
 struct Reconstruction::SliceLoop {
     BoundaryLoop loop;
     LoopView view;          // from its central point: what every level's rays are cut against

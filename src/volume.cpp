@@ -473,17 +473,21 @@ double Volume::signedField(const glm::dvec3& world) const
 bool Volume::surfaceWithin(const glm::dvec3& world, double radius) const
 {
     const openvdb::Vec3d index = mImpl->grid->transform().worldToIndex(openvdb::Vec3d(world.x, world.y, world.z));
-    const openvdb::FloatGrid::ConstAccessor accessor = mImpl->grid->getConstAccessor();
+    // Not registered with the tree (a registered accessor's bookkeeping was most of the cost).
+    const openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> accessor(mImpl->grid->tree());
     const bool above = openvdb::tools::BoxSampler::sample(accessor, index) > mImpl->iso;
-    for (int x = -1; x <= 1; ++x)
-        for (int y = -1; y <= 1; ++y)
-            for (int z = -1; z <= 1; ++z) {
-                if (x == 0 && y == 0 && z == 0) continue;
-                const openvdb::Vec3d direction = openvdb::Vec3d(x, y, z).unitSafe();
-                for (const double r : {0.5 * radius, radius})
-                    if ((openvdb::tools::BoxSampler::sample(accessor, index + r * direction) > mImpl->iso) != above)
-                        return true;
-            }
+    // The faces' directions first, then the edges', then the corners': a surface across an axis
+    // shows at the first few.
+    for (int nonzero = 1; nonzero <= 3; ++nonzero)
+        for (int x = -1; x <= 1; ++x)
+            for (int y = -1; y <= 1; ++y)
+                for (int z = -1; z <= 1; ++z) {
+                    if ((x != 0) + (y != 0) + (z != 0) != nonzero) continue;
+                    const openvdb::Vec3d direction = openvdb::Vec3d(x, y, z).unitSafe();
+                    for (const double r : {0.5 * radius, radius})
+                        if ((openvdb::tools::BoxSampler::sample(accessor, index + r * direction) > mImpl->iso) != above)
+                            return true;
+                }
     return false;
 }
 

@@ -1567,6 +1567,16 @@ TEST(Graph, AJunctionWhosePartsStrayFromTheSurfaceTakesItsCells)
     expectTopLevelOnTheIsosurface(volume, reconstruction);
 }
 
+// A crop of the smoke at iso 0.2, sliced along z: between the planes 54 and 55 a contour grows by
+// 4.6 pixels, and its band, out of register and tiled by area, fanned one vertex of the plane
+// below across 3 pixels of the plane above: 1.45 voxels off at the top level. Bands in slabs
+// thicker than half a voxel whose contours change shape by more than 3 pixels are tiled once
+// first too, and this one, straying more than a voxel, takes its cells: 0.69.
+TEST(Graph, ABandThatFansAcrossItsSlabTakesItsCells)
+{
+    expectTopLevelOnTheIsosurface(smokeCrop({34, 18, 25}, {55, 68, 70}, 0.2), Axis::Z);
+}
+
 // A crop of the smoke at iso 0.1, sliced along x: at x = 54.5 a ring (a wall and its hole) is the
 // one contour of a merge from below and of a fork above, and each cut it open by a keyhole. Both
 // took the same slit, whose flat faces, one from below and one from above, lay on each other:

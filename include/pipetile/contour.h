@@ -203,6 +203,10 @@ struct RadialProfile {
     std::vector<double> nearest, farthest; // per direction
 };
 RadialProfile radialProfile(const LoopView& view, int directions);
+/// How much two loops' shapes differ: the largest difference of their profiles' nearest or
+/// farthest crossing over the directions both have (pixels; infinite where a direction meets
+/// one loop only, 0 with either profile empty).
+double profileChange(const RadialProfile& p, const RadialProfile& q);
 
 /// How far apart a band between two loops puts the points that rays of one direction meet, each
 /// from its own loop's central point: the mean distance between the two profiles' nearest and

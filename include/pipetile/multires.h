@@ -99,11 +99,12 @@ struct ReconstructionStats {
     int bandPlanes = 0;            // planes added inside a band alone, where the middle plane's loop
                                    // strays from the band (splitBand)
     int bandPatches = 0;           // bands meshed from their slab's cells, which stray from them
-                                   // where the slab could not be halved (strayingBandPatch)
+                                   // where the slab could not be halved (strayingBandPatch), or
+                                   // whose top level strayed from the isosurface (strayingPieces)
     int endPatches = 0;            // tube ends meshed from their piece's cells: no end contour in
                                    // register, or a voxel plane shows more than the contours (closeEnd)
     int junctionPatches = 0;       // forks and merges meshed from their slab's cells: their parts
-                                   // strayed from the isosurface at the top level (strayingJunctions)
+                                   // strayed from the isosurface at the top level (strayingPieces)
     int cellMatches = 0;           // ranges between voxel planes cut again where the cells' Euler
                                    // characteristic showed a handle (graph.h)
     int forks = 0, merges = 0;     // junctions: one contour joined to several (saddles)
@@ -211,11 +212,15 @@ public:
 private:
     friend class Refinement;
     using Contours = std::vector<std::vector<Contour>>; // per plane, per loop
-    /// A fork or merge: its kind, and its single contour's plane and loop.
-    using JunctionKey = std::array<int, 3>;
-    /// The stages below, with the forks and merges `cellJunctions` names meshed from their slab's
-    /// cells where those close (resolveEvents).
-    Reconstruction(const Volume& volume, const MeshOptions& options, std::set<JunctionKey> cellJunctions);
+    /// Pieces whose top level strays more than a voxel from the isosurface in a first build.
+    struct StrayingPieces {
+        std::set<std::array<int, 3>> junctions; // forks and merges: kind, single contour's plane and loop
+        std::set<std::pair<int, int>> bands;    // bands: the lower contour's plane and loop
+        bool empty() const { return junctions.empty() && bands.empty(); }
+    };
+    /// The stages below, with the pieces `cellPieces` names meshed from their slab's cells where
+    /// those close (resolveEvents).
+    Reconstruction(const Volume& volume, const MeshOptions& options, StrayingPieces cellPieces);
 
     Contours castLevel(int level) const;
     /// `coarse`'s contours refined to `level`; a contour it skipped is cast with its group's rays.
@@ -250,10 +255,12 @@ private:
     struct SliceCounts;
     struct BandMiddle;
 
-    static JunctionKey keyOf(const Junction& junction);
-    /// The forks and merges whose parts, tiled at the top level, stray more than a voxel from the
-    /// isosurface (Assembly::strayingJunctions), as far as the field shows (Volume::surfaceWithin).
-    std::set<JunctionKey> strayingJunctions() const;
+    static std::array<int, 3> keyOf(const Junction& junction);
+    /// The forks and merges, and the bands that may fan (multires.cpp, mayFan), whose triangles
+    /// at the top level stray more than a voxel from the isosurface as far as the field shows
+    /// (Volume::surfaceWithin), and whose cells close: junctions as the level tiles them, bands
+    /// from their own two contours.
+    StrayingPieces strayingPieces() const;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
     /// (no field traced it); refined from `coarse` likewise.
@@ -277,6 +284,9 @@ private:
     /// stay capped one by one where its cells do not close.
     void patchPastTheBox(SlabPiece& piece, bool top, const std::vector<std::vector<int>>& tubeOf);
     bool makeJunction(const ContourGraph::Slab& slab, const SlabPiece& piece, Junction& junction) const;
+    /// Whether the cells of the graph's piece that holds loop l of plane s, on its lower side
+    /// (`lowerSide`) or its upper side, close with the piece's Euler characteristic.
+    bool cellsClose(int s, int l, bool lowerSide) const;
     /// An n:m piece of walls (n, m >= 2) as a merge into a waist contour in the slab's middle
     /// plane (contour.h, waistAround), then a fork out of it: a genus-0 piece with n + m loops,
     /// as the slab's labelling counts it. Adds that plane; false (and the plane removed) if the
@@ -415,7 +425,7 @@ private:
     ContourGraph mGraph;
     std::optional<EulerProfile> mCells; // counted where the graph needed it (correspond())
     ReconstructionStats mStats;
-    std::set<JunctionKey> mCellJunctions;
+    StrayingPieces mCellPieces;
 };
 
 /// Stateful: the contours of the current level, refined in place to the next (paper §4.3). Each
