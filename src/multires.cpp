@@ -855,9 +855,9 @@ class Reconstruction::Assembly {
 public:
     Assembly(const Reconstruction& reconstruction, const Contours& contours, int level);
     LevelMesh build(const std::vector<glm::dvec3>& coarser);
-    /// Per junction, whether a triangle of its parts lies farther than `reach` voxels from the
-    /// isosurface (straysFrom).
-    std::vector<bool> strayingJunctions(double reach);
+    /// Per junction `asked`, whether a triangle of its parts lies farther than `reach` voxels
+    /// from the isosurface (straysFrom).
+    std::vector<bool> strayingJunctions(const std::vector<bool>& asked, double reach);
     /// The band between two contours as tileSides gives it, over `vertices`: the lower contour's
     /// crossings in world space, then the upper one's (band-local ids).
     static std::vector<Triangle> bandOf(const Contour& lower, const Contour& upper,
@@ -1761,11 +1761,12 @@ bool mayFan(const RadialProfile& lower, const RadialProfile& upper, double thick
 
 } // namespace
 
-std::vector<bool> Reconstruction::Assembly::strayingJunctions(double reach)
+std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<bool>& asked, double reach)
 {
     buildTrees();
     std::vector<bool> straying(mJunctions.size(), false);
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
+        if (!asked[j]) continue;
         const std::size_t first = mesh.triangles.size();
         tileJunction(j);
         straying[j] = std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
@@ -1786,6 +1787,19 @@ std::vector<Triangle> Reconstruction::Assembly::bandOf(const Contour& lower, con
         return std::move(*band);
     const std::vector<glm::dvec3> a(vertices.begin(), vertices.begin() + m), b(vertices.begin() + m, vertices.end());
     return withoutFullFans(tileLeastAreaNearest(a, b), m, static_cast<std::uint32_t>(b.size()));
+}
+
+bool Reconstruction::partsMayFan(const Junction& junction) const
+{
+    if (junction.kind == EventKind::Rim) return false;
+    for (std::size_t k = 0; k < junction.parts.size(); ++k) {
+        const Junction::Part& part = junction.parts[k];
+        // A part not wound once around its partner's centre is tiled by the minimum-area tiler.
+        if (part.view.winding != 1) return true;
+        const SliceLoop& partner = mLoops[junction.many[k].first][junction.many[k].second];
+        if (profileChange(radialProfile(part.view, profileDirections()), partner.profile) > kShapeChange) return true;
+    }
+    return false;
 }
 
 std::array<int, 3> Reconstruction::keyOf(const Junction& junction)
@@ -1834,9 +1848,11 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
                 straying.bands.insert(lower);
         }
     }
-    // The junctions, as the top level tiles them.
-    if (!mJunctions.empty()) {
-        const std::vector<bool> junctions = Assembly(*this, castLevel(top), top).strayingJunctions(kStray);
+    // The junctions whose parts may fan, as the top level tiles them.
+    std::vector<bool> asked(mJunctions.size(), false);
+    for (std::size_t j = 0; j < mJunctions.size(); ++j) asked[j] = partsMayFan(mJunctions[j]);
+    if (std::find(asked.begin(), asked.end(), true) != asked.end()) {
+        const std::vector<bool> junctions = Assembly(*this, castLevel(top), top).strayingJunctions(asked, kStray);
         for (std::size_t j = 0; j < mJunctions.size(); ++j)
             if (junctions[j] && mJunctions[j].kind != EventKind::Rim) straying.junctions.insert(keyOf(mJunctions[j]));
     }

@@ -256,6 +256,10 @@ private:
     struct BandMiddle;
 
     static std::array<int, 3> keyOf(const Junction& junction);
+    /// Whether a fork's or merge's part may fan across its slab: one tiled by the minimum-area
+    /// tiler, or whose shape, from its partner's centre, differs from the partner's by more than
+    /// kShapeChange pixels (a fan joins contours that differ by about its reach).
+    bool partsMayFan(const Junction& junction) const;
     /// The forks and merges, and the bands that may fan (multires.cpp, mayFan), whose triangles
     /// at the top level stray more than a voxel from the isosurface as far as the field shows
     /// (Volume::surfaceWithin), and whose cells close: junctions as the level tiles them, bands
