@@ -216,10 +216,10 @@ Reconstruction::Reconstruction(const Volume& volume, const MeshOptions& options)
     // A fork's or merge's part in a slab half a voxel thick can fan a contour's loop to a few
     // points of the single contour voxels away (a crop of the smoke at iso 0.2: a loop 7 pixels
     // across, 1.50 voxels off at the top level), and a band between contours of different shapes
-    // one vertex to an arc (an arm grown between the planes: 1.45). The top level's junctions and
-    // such bands are tiled once here, and where any strays more than a voxel from the
-    // isosurface, the skeleton is built again with those pieces from their cells. Every level is
-    // built from that second skeleton alone.
+    // one vertex to an arc (a contour that grows by 4.6 pixels in a voxel: 1.45). The top level's
+    // junctions and bands that may fan are tiled once here, and where any strays more than a
+    // voxel from the isosurface, the skeleton is built again with those pieces from their cells.
+    // Every level is built from that second skeleton alone.
     const Clock::time_point start = Clock::now();
     StrayingPieces straying = strayingPieces();
     double seconds = mStats.seconds + secondsSince(start); // the first build and its tiling
