@@ -592,9 +592,15 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                 if (copies(p[corners[1]]) == 0) pairs.push_back({corners[0], corners[1], false, corners[2]});
             }
         }
-        // By position, not id: the same collapses whichever way the level was built.
-        // A speck's collapse after its edges'.
+        // The shortest edges first: a longer collapse can leave a shorter edge beside it unable
+        // to go (a crop of the smoke: 3140 at its top level where a contour thinner than a voxel
+        // goes into a patch's point, 41 now; over the evaluation's 944 levels, 67 needles over
+        // 100 where there were 85). Then by position, not id: the same collapses whichever way
+        // the level was built. A speck's collapse after its edges'.
+        const auto length2 = [&](const Collapse& c) { return glm::dot(p[c.go] - p[c.keep], p[c.go] - p[c.keep]); };
         std::sort(pairs.begin(), pairs.end(), [&](const Collapse& x, const Collapse& y) {
+            const double lx = length2(x), ly = length2(y);
+            if (lx != ly) return lx < ly;
             if (p[x.go] != p[y.go]) return before(p[x.go], p[y.go]);
             if (p[x.keep] != p[y.keep]) return before(p[x.keep], p[y.keep]);
             if ((x.also != kNoVertex) != (y.also != kNoVertex)) return y.also != kNoVertex;

@@ -41,7 +41,7 @@ long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 /// goes; between copies of one point, the higher-numbered. A collapse is made where it keeps a
 /// closed manifold so (the edge has two triangles, and its ends share no neighbour but their
 /// third corners) and turns no triangle over; rounds go on until none is left to make. The
-/// vertices left keep their order and positions.
+/// vertices left keep their order and positions. Shorter edges go first, then by position.
 /// Such edges lie in slice planes: a junction part's ray, cast from the partner's central point,
 /// meets the single contour's polygon next to where that contour's own ray does (or at the same
 /// point, a triangle of no area), or two rays meet a contour thinner than a voxel. Every triangle
