@@ -528,8 +528,17 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
     return normals;
 }
 
+bool ThinSlabPlanes::holdBoth(const glm::dvec3& a, const glm::dvec3& b) const
+{
+    constexpr double kSamePlane = 1e-6;
+    const double wa = volume->worldToIndex(a)[axis];
+    if (std::abs(volume->worldToIndex(b)[axis] - wa) >= kSamePlane) return false;
+    const auto at = std::lower_bound(positions.begin(), positions.end(), wa - kSamePlane);
+    return at != positions.end() && std::abs(*at - wa) < kSamePlane;
+}
+
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect, bool lowerWorst, bool measureMove)
+                              double needleAspect, bool lowerWorst, bool measureMove, const ThinSlabPlanes* thin)
 {
     // How many copies of a point the coarser level has: two constructions can put a vertex on
     // another bit for bit (a junction part's crossing on the single contour's), and each copy
@@ -555,7 +564,10 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
         // Only short edges may go, unless the move is measured: most triangles have none, which is
         // cheaper to see than their aspect ratio.
         const auto mayGo = [&](std::uint32_t a, std::uint32_t b) {
-            return measureMove || glm::dot(p[a] - p[b], p[a] - p[b]) <= tolerance2;
+            if (measureMove) return true;
+            const double length2 = glm::dot(p[a] - p[b], p[a] - p[b]);
+            return length2 <= tolerance2 ||
+                   (thin && length2 <= thin->tolerance * thin->tolerance && thin->holdBoth(p[a], p[b]));
         };
         for (const Triangle& t : mesh.triangles) {
             const int shortEdges =
