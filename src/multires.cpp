@@ -1704,13 +1704,15 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     // Below the top level every such edge goes whatever its triangles' shape: a level's vertices
     // stay at every finer level, where the same pair, no longer new, can make a needle no collapse
     // may take (the gaffer smoke's 232 at level 2, 0.05 voxel kept at level 1 under aspect 10).
-    // So do edges up to a quarter voxel that lie in a plane beside one of the events' slabs, an
-    // eighth of a voxel thick (ThinSlabPlanes): crossing tree 1 sliced along x kept a needle of
-    // aspect 313 at level 2 over one of 0.24 voxel. Over the evaluation's 944 levels, 65 needles
-    // over 100 where there were 67; no edge longer than twice the slab went more often.
-    constexpr double kThinSlab = 0.125, kThinSlabEdgeVoxels = 0.25;
+    // So do edges within the top level's needle reach (kNeedleReachVoxels) that lie in a plane
+    // beside one of the events' slabs, an eighth of a voxel thick (ThinSlabPlanes): crossing tree
+    // 1 sliced along x kept a needle of aspect 313 at level 2 over one of 0.24 voxel. Over the
+    // evaluation's 944 levels, 63 needles over 100 where there were 67 (65 with a quarter voxel;
+    // 62 with slabs a quarter voxel thick too, but with needles grown elsewhere: 171 where a crop
+    // had 143).
+    constexpr double kThinSlab = 0.125;
     const bool top = result.level == mOptions.levels - 1;
-    ThinSlabPlanes thin{&mVolume, mPlan.axis, {}, kThinSlabEdgeVoxels * voxel};
+    ThinSlabPlanes thin{&mVolume, mPlan.axis, {}, kNeedleReachVoxels * voxel};
     for (std::size_t s = 0; s < mPositions.size(); ++s)
         if (thinnest[s] <= kThinSlab) thin.positions.push_back(mPositions[s]);
     std::sort(thin.positions.begin(), thin.positions.end());

@@ -2045,8 +2045,8 @@ TEST(Graph, ACollapsesShortestEdgesGoFirst)
 // Crossing tree 1 sliced along x: at level 2 a vertex of a plane beside one of the events' slabs,
 // an eighth of a voxel thick, lay 0.24 voxel from another of that plane, and both were vertices of
 // level 0, so no collapse of a finer level could take either: their edge fanned to a point 9
-// voxels away across the slab (aspect 313). Below the top level such edges, up to a quarter voxel,
-// go whatever their triangles' shape (Assembly::build, ThinSlabPlanes).
+// voxels away across the slab (aspect 313). Below the top level such edges, up to 0.3 voxel, go
+// whatever their triangles' shape (Assembly::build, ThinSlabPlanes).
 TEST(Graph, AThinSlabsPlanesKeepNoShortEdgeBelowTheTopLevel)
 {
     const std::vector<double> aspects = largestAspectsAlongX(capsuleUnion(crossingTrees()[1], "capsule tree"));

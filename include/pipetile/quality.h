@@ -33,6 +33,18 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 /// @return the number of flips made.
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 
+/// Slice planes beside a slab so thin that two vertices of one of them a little apart fan needles
+/// across it whatever the tiling: a triangle on an edge e long to a vertex d away across a slab t
+/// thick has an aspect ratio of up to sqrt(3)/2 d^2 / (e t).
+struct ThinSlabPlanes {
+    const Volume* volume = nullptr; // maps vertices into index space
+    int axis = 2;                   // the slicing axis
+    std::vector<double> positions;  // the planes' index-space coordinates along it, ascending
+    double tolerance = 0.0;         // world units: the longest edge in one of them that goes
+    /// Whether a and b both lie in one of the planes (to a millionth of a voxel).
+    bool holdBoth(const glm::dvec3& a, const glm::dvec3& b) const;
+};
+
 /// Removes the vertices that make needles. Each end of an edge no longer than `tolerance` (world
 /// units) goes into the other end, the edge's two triangles with it, unless it is a vertex of the
 /// level below (`coarser`: its positions, one entry per copy; empty for level 0). So each level's
@@ -58,25 +70,12 @@ long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
 /// distance from the vertex that goes to the triangles that take its place, and from points of
 /// those (centroids, midpoints of their edges at the kept end) to the triangles before.
 /// Deterministic; the surface moves by at most the edges' length, or `tolerance` past it.
-/// @return the number of edges collapsed.
 /// With `thin`, an edge whose two ends lie in one of its planes goes as one within `tolerance`
 /// does where it is no longer than `thin->tolerance`.
-struct ThinSlabPlanes;
+/// @return the number of edges collapsed.
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               double needleAspect = 0.0, bool lowerWorst = false, bool measureMove = false,
                               const ThinSlabPlanes* thin = nullptr);
-
-/// Slice planes beside a slab so thin that two vertices of one of them a little apart fan needles
-/// across it whatever the tiling: a triangle on an edge e long to a vertex d away across a slab t
-/// thick has an aspect ratio of up to sqrt(3)/2 d^2 / (e t).
-struct ThinSlabPlanes {
-    const Volume* volume = nullptr; // maps vertices into index space
-    int axis = 2;                   // the slicing axis
-    std::vector<double> positions;  // the planes' index-space coordinates along it, ascending
-    double tolerance = 0.0;         // world units: the longest edge in one of them that goes
-    /// Whether a and b both lie in one of the planes (to a millionth of a voxel).
-    bool holdBoth(const glm::dvec3& a, const glm::dvec3& b) const;
-};
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
