@@ -150,6 +150,9 @@ private:
     // coarsest band, 8 rays against a slice spacing of 2, is about 3), so the paper's tiling stays
     // as it is wherever it has no needle, and the pass costs next to nothing there.
     static constexpr double kNeedleAspect = 5.0;
+    // A triangle past this aspect ratio is flat: its third corner lies within about a
+    // ten-thousandth of its longest edge's length of that edge.
+    static constexpr double kFlatAspect = 1e4;
 
     bool samePlane(std::uint32_t a, std::uint32_t b) const { return std::abs(mPlaneW[a] - mPlaneW[b]) < kSamePlane; }
 
@@ -190,9 +193,16 @@ private:
         const int k1 = oppositeCorner(t1, a, b), k2 = oppositeCorner(t2, b, a);
         if (k1 < 0 || k2 < 0) return false;
         const std::uint32_t c = t1[k1], d = t2[k2];
-        if (c == d || alongContour(a, b, c, d) || trianglesOn(c, d, face, 1) > 0) return false;
-
+        // A contour edge stays, unless a triangle on it is flat with its third corner between
+        // the edge's ends: then the flip keeps the contour's line, through that corner.
         const std::vector<glm::dvec3>& p = mMesh.vertices;
+        const auto between = [&](std::uint32_t corner) {
+            const double along = glm::dot(p[corner] - p[a], p[b] - p[a]);
+            return along > 0.0 && along < glm::dot(p[b] - p[a], p[b] - p[a]);
+        };
+        const bool flat = (mAspect[f1] > kFlatAspect && between(c)) || (mAspect[f2] > kFlatAspect && between(d));
+        if (c == d || (alongContour(a, b, c, d) && !flat) || trianglesOn(c, d, face, 1) > 0) return false;
+
         const double before = std::max(mAspect[f1], mAspect[f2]);
         const double after1 = aspectRatio(p[c], p[a], p[d]), after2 = aspectRatio(p[d], p[b], p[c]);
         // A margin well above rounding: every flip then lowers the list of all aspect ratios

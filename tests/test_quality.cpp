@@ -422,6 +422,24 @@ TEST(Quality, FlippingAgainChangesNothing)
     EXPECT_EQ(level.mesh.triangles, before);
 }
 
+// A triangle of no area on a contour edge: its third corner c lies on the edge ab (to 1e-5 of its
+// length), and the triangle across it leaves the plane. A contour edge stays, but flipping this
+// one keeps the contour's line, through c. Once the smoke along x got such a triangle (aspect 2.4
+// million at its top level, where coarse levels took longer edges: Assembly::build).
+TEST(Quality, AFlatTriangleOnAContourEdgeIsFlippedAway)
+{
+    const Volume& volume = test::cachedSample("ybranch");
+    TriangleMesh mesh;
+    for (const glm::dvec3& index :
+         {glm::dvec3(0, 0, 5), glm::dvec3(4, 0, 5), glm::dvec3(2, 1e-5, 5), glm::dvec3(2, -1, 6)})
+        mesh.vertices.push_back(volume.indexToWorld(index));
+    mesh.triangles = {{0, 1, 2}, {1, 0, 3}}; // abc in the plane z = 5, bad across to z = 6
+    ASSERT_GT(measureQuality(mesh).largestAspect, 1e5);
+    EXPECT_EQ(flipNeedles(mesh, volume, 2), 1);
+    EXPECT_EQ(mesh.triangles, (std::vector<Triangle>{{2, 0, 3}, {3, 1, 2}}));
+    EXPECT_LT(measureQuality(mesh).largestAspect, 2.0);
+}
+
 namespace {
 
 // Every level of a real volume (4 levels): no triangle of no area, and (with `boundAspect`) none
