@@ -1704,26 +1704,32 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     // Below the top level every such edge goes whatever its triangles' shape: a level's vertices
     // stay at every finer level, where the same pair, no longer new, can make a needle no collapse
     // may take (the gaffer smoke's 232 at level 2, 0.05 voxel kept at level 1 under aspect 10).
-    // So do edges within the top level's needle reach (kNeedleReachVoxels) that lie in a plane
-    // beside one of the events' slabs, an eighth of a voxel thick (ThinSlabPlanes): crossing tree
-    // 1 sliced along x kept a needle of aspect 313 at level 2 over one of 0.24 voxel. Over the
-    // evaluation's 944 levels, 63 needles over 100 where there were 67 (65 with a quarter voxel;
-    // 62 with slabs a quarter voxel thick too, but with needles grown elsewhere: 171 where a crop
-    // had 143).
+    // A coarser level's rays lie about twice as far apart, and so may the ends of its edges that
+    // go: each level below the next-to-top takes edges twice as long, up to four times
+    // kNeedleEdgeVoxels. Over the evaluation's 59 runs its levels 0 and 1 kept a third and a fifth
+    // fewer triangles, a quarter and three eighths as many under 5 degrees, as far from the
+    // isosurface; its needles over 100 went from 63 to 52, and ring tree 0's 108 went, though
+    // ring tree 1 sliced along x reaches 100.2 at levels 1 and 2 (Graph's known gap).
+    // Edges within the top level's needle reach (kNeedleReachVoxels) that lie in a plane beside
+    // one of the events' slabs, an eighth of a voxel thick, go too (ThinSlabPlanes): crossing tree
+    // 1 sliced along x kept a needle of aspect 313 at level 2 over one of 0.24 voxel. That took
+    // the evaluation's needles from 67 to 63 (65 with a quarter voxel; 62 with slabs a quarter
+    // voxel thick too, but with needles grown elsewhere: 171 where a crop had 143).
     constexpr double kThinSlab = 0.125;
     const bool top = result.level == mOptions.levels - 1;
+    const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
+    const double shortEdge = (paper ? std::ldexp(kNeedleEdgeVoxels, std::max(coarsening - 1, 0)) : 1e-6) * voxel;
     ThinSlabPlanes thin{&mVolume, mPlan.axis, {}, kNeedleReachVoxels * voxel};
     for (std::size_t s = 0; s < mPositions.size(); ++s)
         if (thinnest[s] <= kThinSlab) thin.positions.push_back(mPositions[s]);
     std::sort(thin.positions.begin(), thin.positions.end());
-    collapseNeedleEdges(mesh, (paper ? kNeedleEdgeVoxels : 1e-6) * voxel, coarser,
-                        paper && !top ? 0.0 : kShortEdgeAspect, false, false, paper && !top ? &thin : nullptr);
+    collapseNeedleEdges(mesh, shortEdge, coarser, paper && !top ? 0.0 : kShortEdgeAspect, false, false,
+                        paper && !top ? &thin : nullptr);
     if (paper) {
         // The needles left, over longer edges where that lowers the worst aspect ratio around:
         // a coarser level's bands and sectors are about twice as long, and so are its needles'
         // short edges for one aspect ratio.
-        const int coarsening = std::min(mOptions.levels - 1 - result.level, 3);
-        const double reach = std::ldexp(kNeedleReachVoxels, std::max(coarsening, 0)) * voxel;
+        const double reach = std::ldexp(kNeedleReachVoxels, coarsening) * voxel;
         collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true);
         long long flips = flipNeedles(mesh, mVolume, mPlan.axis);
         result.flips = flips;
@@ -1734,6 +1740,10 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
             flips = flipNeedles(mesh, mVolume, mPlan.axis);
             result.flips += flips;
         }
+        // Below the top level the short edges go once more: the passes since can free one the
+        // first could not take (the hollow Y's level 2 kept one of 0.094 voxel).
+        if (!top && collapseNeedleEdges(mesh, shortEdge, coarser, 0.0, false, false, &thin) > 0)
+            result.flips += flipNeedles(mesh, mVolume, mPlan.axis);
     }
     return std::move(result);
 }
