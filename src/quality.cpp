@@ -150,8 +150,8 @@ private:
     // coarsest band, 8 rays against a slice spacing of 2, is about 3), so the paper's tiling stays
     // as it is wherever it has no needle, and the pass costs next to nothing there.
     static constexpr double kNeedleAspect = 5.0;
-    // A triangle past this aspect ratio is flat: its third corner lies within about a
-    // ten-thousandth of its longest edge's length of that edge.
+    // A triangle past this aspect ratio is flat: its middle corner lies within about a
+    // ten-thousandth of the longest edge's length from that edge.
     static constexpr double kFlatAspect = 1e4;
 
     bool samePlane(std::uint32_t a, std::uint32_t b) const { return std::abs(mPlaneW[a] - mPlaneW[b]) < kSamePlane; }
@@ -575,9 +575,9 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
         // cheaper to see than their aspect ratio.
         const auto mayGo = [&](std::uint32_t a, std::uint32_t b) {
             if (measureMove) return true;
-            const double length2 = glm::dot(p[a] - p[b], p[a] - p[b]);
-            return length2 <= tolerance2 ||
-                   (thin && length2 <= thin->tolerance * thin->tolerance && thin->holdBoth(p[a], p[b]));
+            const double squared = glm::dot(p[a] - p[b], p[a] - p[b]);
+            return squared <= tolerance2 ||
+                   (thin && squared <= thin->tolerance * thin->tolerance && thin->holdBoth(p[a], p[b]));
         };
         for (const Triangle& t : mesh.triangles) {
             const int shortEdges =
