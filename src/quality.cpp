@@ -18,6 +18,11 @@ namespace pipetile {
 
 namespace {
 
+// Two index-space coordinates along the slicing axis this close lie in one slice plane. Planes lie
+// far more than this apart (added planes halve a slab down to an eighth of the slice spacing at
+// most, graph.cpp), and the round trip through world space moves a coordinate by far less.
+constexpr double kSamePlane = 1e-6;
+
 glm::dvec3 faceNormal(const TriangleMesh& mesh, const Triangle& t) // length: twice the area
 {
     const glm::dvec3& a = mesh.vertices[t[0]];
@@ -136,11 +141,6 @@ public:
     }
 
 private:
-    // Planes lie far more than this apart (added planes halve a slab down to an eighth of the
-    // slice spacing at most, graph.cpp), and the round trip through world space moves an
-    // index-space coordinate by far less.
-    static constexpr double kSamePlane = 1e-6;
-
     // How far a flip may move the surface, in voxels (segmentDistance).
     static constexpr double kMaxMoveVoxels = 0.1;
 
@@ -540,7 +540,6 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 
 bool ThinSlabPlanes::holdBoth(const glm::dvec3& a, const glm::dvec3& b) const
 {
-    constexpr double kSamePlane = 1e-6;
     const double wa = volume->worldToIndex(a)[axis];
     if (std::abs(volume->worldToIndex(b)[axis] - wa) >= kSamePlane) return false;
     const auto at = std::lower_bound(positions.begin(), positions.end(), wa - kSamePlane);
