@@ -547,7 +547,8 @@ bool ThinSlabPlanes::holdBoth(const glm::dvec3& a, const glm::dvec3& b) const
 }
 
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect, bool lowerWorst, bool measureMove, const ThinSlabPlanes* thin)
+                              double needleAspect, bool lowerWorst, bool measureMove, const ThinSlabPlanes* thin,
+                              bool alongCorners)
 {
     // How many copies of a point the coarser level has: two constructions can put a vertex on
     // another bit for bit (a junction part's crossing on the single contour's), and each copy
@@ -578,6 +579,19 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             return squared <= tolerance2 ||
                    (thin && squared <= thin->tolerance * thin->tolerance && thin->holdBoth(p[a], p[b]));
         };
+        const auto offer = [&](std::uint32_t a, std::uint32_t b) {
+            bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
+            if (keepA && keepB) {
+                if (p[a] != p[b] || copies(p[a]) > 1) return;
+                keepB = false; // one copy stays
+            }
+            // A vertex of the coarser level stays; between two new ones, the first by position (by id
+            // between copies of one point, which both ways of building a level number alike).
+            const bool first = before(p[a], p[b]) || (p[a] == p[b] && a < b);
+            const bool eitherWay = !keepA && !keepB;
+            pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay} : Collapse{b, a, eitherWay});
+        };
+        std::vector<bool> needleCorner; // with alongCorners: the needles' corners the coarser level lacks
         for (const Triangle& t : mesh.triangles) {
             const int shortEdges =
                 (mayGo(t[0], t[1]) ? 1 : 0) + (mayGo(t[1], t[2]) ? 1 : 0) + (mayGo(t[2], t[0]) ? 1 : 0);
@@ -591,17 +605,11 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t a = t[k], b = t[(k + 1) % 3];
                 // Each edge once (from either triangle on it when only needles count).
-                if (!((a < b || needleAspect > 0.0) && mayGo(a, b))) continue;
-                bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
-                if (keepA && keepB) {
-                    if (p[a] != p[b] || copies(p[a]) > 1) continue;
-                    keepB = false; // one copy stays
+                if ((a < b || needleAspect > 0.0) && mayGo(a, b)) offer(a, b);
+                if (alongCorners && copies(p[a]) == 0) {
+                    needleCorner.resize(p.size(), false);
+                    needleCorner[a] = true;
                 }
-                // A vertex of the coarser level stays; between two new ones, the first by position (by id
-                // between copies of one point, which both ways of building a level number alike).
-                const bool first = before(p[a], p[b]) || (p[a] == p[b] && a < b);
-                const bool eitherWay = !keepA && !keepB;
-                pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay} : Collapse{b, a, eitherWay});
             }
             if (speck) {
                 // Kept: the corner the coarser level has, else the first by position.
@@ -613,6 +621,17 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                 if (copies(p[corners[1]]) == 0) pairs.push_back({corners[0], corners[1], false, corners[2]});
             }
         }
+        // A needle's new corner may go along its other edges too: a patch's wall, a vertex per
+        // pixel, facing a contour's crossings 2 voxels apart across a slab an eighth of a voxel
+        // thick, leaves a needle whose own edges cannot go (the corner would turn a triangle over)
+        // while a quarter-voxel edge beside it can (ring tree 1 sliced along x: 100.23 at levels
+        // 1 and 2).
+        if (!needleCorner.empty())
+            for (const Triangle& t : mesh.triangles)
+                for (int k = 0; k < 3; ++k) {
+                    const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+                    if (needleCorner[a] || needleCorner[b]) offer(a, b);
+                }
         // The shortest edges first: a longer collapse can leave a shorter edge beside it unable
         // to go (a crop of the smoke: 3140 at its top level where a contour thinner than a voxel
         // goes into a patch's point, 41 now; over the evaluation's 944 levels, 67 needles over

@@ -2057,20 +2057,18 @@ TEST(Graph, AThinSlabsPlanesKeepNoShortEdgeBelowTheTopLevel)
     expectNoNeedleAtAnyLevel(largestAspectsAlongX(capsuleUnion(crossingTrees()[1], "capsule tree")));
 }
 
-// Known gap (CMakeLists.txt, WILL_FAIL): issue 17's bound, no triangle over aspect 100 at any
-// level, on the crossing and ring trees sliced along x. Two of their sixteen levels still hold
-// one each, both 100.23 (ring tree 1, levels 1 and 2): in a slab an eighth of a voxel thick, a
-// chord of 11.6 voxels on one side faces a wall that cells tiled a vertex per pixel on the other,
-// and the fan from the chord's end to that wall is a needle whatever the flips do (about 150 at
-// the wall's middle with the chord's ends alone). Halving such chords (longer than
-// 2 sqrt(100 t / 0.87) in a slab t thick) lowers these two and raises others (102 and 127 at the
-// top levels of other trees). Ring tree 0's level 1 held 108 until coarse levels took longer
-// edges (Assembly::build): there three sections' centroids lie on the line of the trunk's
-// straight wall (to a thousandth of a pixel), the ray along it grazes the wall and meets it
-// twice, 30 voxels apart, and no added ray splits that chord (a fourth halving of long chords
-// only moved the needle to level 0). Crossing tree 1's level 2 held 313 until short edges in thin
-// slabs' planes went.
-TEST(Graph, DISABLED_KnownGapCapsuleTreesSlicedAlongXHaveNoNeedles)
+// Issue 17's bound, no triangle over aspect 100 at any level, on the crossing and ring trees
+// sliced along x. Ring tree 1 kept 100.23 at levels 1 and 2 (an expected failure until then): in
+// a slab an eighth of a voxel thick, a chord of 11.6 voxels on one side faces a wall that cells
+// tiled a vertex per pixel on the other, and the fan from the chord's end to that wall is a
+// needle whatever the flips do. Its corner on the wall cannot go along the needle's own edges
+// (a triangle would turn over), but below the top level it may go along its other edges, and
+// one of a quarter voxel takes it (Assembly::build): 49 now. Ring tree 0's level 1 held 108
+// until coarse levels took longer edges: there three sections' centroids lie on the line of the
+// trunk's straight wall (to a thousandth of a pixel), the ray along it grazes the wall and meets
+// it twice, 30 voxels apart. Crossing tree 1's level 2 held 313 until short edges in thin slabs'
+// planes went.
+TEST(Graph, CapsuleTreesSlicedAlongXHaveNoNeedles)
 {
     std::vector<std::vector<Capsule>> trees = crossingTrees();
     trees.insert(trees.end(), ringTrees().begin(), ringTrees().end());

@@ -3,13 +3,19 @@
 characteristic and components of volumeToMesh's isosurface of the same crop?
 
     python3 tools/crop_survey.py SEED RUNS [PIPETILE]     # PIPETILE: build/pipetile by default
+    python3 tools/crop_survey.py SEED RUNS [PIPETILE] --validate
 
 Each run draws a box 20 to 50 voxels a side inside the smoke's active box and an isovalue of 0.1,
 0.2 or 0.3, writes the crop (pyopenvdb), meshes it with `--levels 2` along each axis, and compares
 each level's topology (the report's) with the isosurface's (pyopenvdb's volumeToMesh, adaptivity
 0, welded). Prints the runs that differ and the count that match; the README's crop counts come
-from seeds 101 to 105 with 15, 15, 12, 15 and 15 runs. Debian's python3 with python3-openvdb and
-python3-numpy (tools/dev.sh installs both)."""
+from seeds 101 to 110 with 15 runs each, 12 for seed 103.
+
+With --validate, each run meshes 4 levels with `--validate`: every level must also be closed,
+manifold and oriented, and the runs whose top level is more than a voxel from the isosurface
+(symmetric Hausdorff distance) are printed with that distance; the README's "fresh survey" is
+seeds 106 to 110 with 15 runs each. Debian's python3 with python3-openvdb and python3-numpy
+(tools/dev.sh installs both)."""
 import json
 import os
 import random
@@ -45,8 +51,12 @@ def topology(points, faces):
 
 
 def main():
-    seed, runs = int(sys.argv[1]), int(sys.argv[2])
-    exe = sys.argv[3] if len(sys.argv) > 3 else os.path.join(HERE, '..', 'build', 'pipetile')
+    validate = '--validate' in sys.argv
+    args = [a for a in sys.argv[1:] if a != '--validate']
+    seed, runs = int(args[0]), int(args[1])
+    exe = args[2] if len(args) > 2 else os.path.join(HERE, '..', 'build', 'pipetile')
+    levels_wanted = ['--levels', '4', '--validate'] if validate else ['--levels', '2']
+    distances = []
     grid = vdb.read(SMOKE, vdb.readAllGridMetadata(SMOKE)[0].name)
     lo, hi = grid.evalActiveVoxelBoundingBox()
     rng = random.Random(seed)
@@ -75,19 +85,30 @@ def main():
             reference = topology(points, faces)
             for axis in 'xyz':
                 report = os.path.join(work, 'report.json')
-                result = subprocess.run([exe, 'mesh', path, '--iso', str(iso), '--axis', axis, '--levels', '2',
+                result = subprocess.run([exe, 'mesh', path, '--iso', str(iso), '--axis', axis, *levels_wanted,
                                          '-o', os.path.join(work, 'mesh.ply'), '--report', report],
                                         capture_output=True, text=True)
                 total += 1
                 if result.returncode != 0:
                     print(f'run {run} {box} {axis}: exit {result.returncode}: {result.stderr.strip()}')
                     continue
-                levels = [(level['euler'], level['components']) for level in json.load(open(report))['levels']]
-                if all(level == reference for level in levels):
+                reported = json.load(open(report))['levels']
+                levels = [(level['euler'], level['components']) for level in reported]
+                sound = all(level['validation'][k] for level in reported if validate
+                            for k in ('closed', 'manifold', 'oriented'))
+                if all(level == reference for level in levels) and sound:
                     matched += 1
                 else:
-                    print(f'run {run} {box} {axis}: isosurface {reference}, levels {levels} {result.stderr.strip()}')
+                    print(f'run {run} {box} {axis}: isosurface {reference}, levels {levels}, '
+                          f'closed manifold oriented {sound} {result.stderr.strip()}')
+                if validate:
+                    distances.append(reported[-1]['validation']['hausdorff_voxels'])
+                    if distances[-1] > 1:
+                        print(f'run {run} {box} {axis}: top level {distances[-1]:.2f} voxels off')
     print(f'seed {seed}: {matched} of {total} runs match')
+    if validate:
+        print(f'seed {seed}: {sum(d > 1 for d in distances)} of {len(distances)} runs more than a voxel off '
+              f'at the top level, mean {np.mean(distances):.3f} voxel')
 
 
 if __name__ == '__main__':

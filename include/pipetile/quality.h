@@ -72,10 +72,12 @@ struct ThinSlabPlanes {
 /// Deterministic; the surface moves by at most the edges' length, or `tolerance` past it.
 /// With `thin`, an edge whose two ends lie in one of its planes goes as one within `tolerance`
 /// does where it is no longer than `thin->tolerance`.
+/// With `alongCorners` (and `measureMove`), a needle's corners that the coarser level lacks may
+/// also go along their other edges, and their neighbours into them, as the needles' own edges do.
 /// @return the number of edges collapsed.
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               double needleAspect = 0.0, bool lowerWorst = false, bool measureMove = false,
-                              const ThinSlabPlanes* thin = nullptr);
+                              const ThinSlabPlanes* thin = nullptr, bool alongCorners = false);
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
