@@ -621,11 +621,9 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
                 if (copies(p[corners[1]]) == 0) pairs.push_back({corners[0], corners[1], false, corners[2]});
             }
         }
-        // A needle's new corner may go along its other edges too: a patch's wall, a vertex per
-        // pixel, facing a contour's crossings 2 voxels apart across a slab an eighth of a voxel
-        // thick, leaves a needle whose own edges cannot go (the corner would turn a triangle over)
-        // while a quarter-voxel edge beside it can (ring tree 1 sliced along x: 100.23 at levels
-        // 1 and 2).
+        // A needle's new corner may go along its other edges too, where its own cannot (it would
+        // turn a triangle over) and a short edge beside it can (Assembly::build says where). One
+        // more pass over the triangles, only where a needle has such a corner.
         if (!needleCorner.empty())
             for (const Triangle& t : mesh.triangles)
                 for (int k = 0; k < 3; ++k) {
