@@ -1723,8 +1723,12 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     for (std::size_t s = 0; s < mPositions.size(); ++s)
         if (thinnest[s] <= kThinSlab) thin.positions.push_back(mPositions[s]);
     std::sort(thin.positions.begin(), thin.positions.end());
-    collapseNeedleEdges(mesh, shortEdge, coarser, paper && !top ? 0.0 : kShortEdgeAspect, false, false,
-                        paper && !top ? &thin : nullptr);
+    NeedleCollapse shortEdges;
+    if (paper && !top)
+        shortEdges.thin = &thin;
+    else
+        shortEdges.needleAspect = kShortEdgeAspect;
+    collapseNeedleEdges(mesh, shortEdge, coarser, shortEdges);
     if (paper) {
         // The needles left, over longer edges where that lowers the worst aspect ratio around:
         // a coarser level's bands and sectors are about twice as long, and so are its needles'
@@ -1740,19 +1744,23 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // moved meshes by up to 0.4 voxel there (a Y sliced across its fork from 0.82 to 1.24
         // voxels off), so the top level keeps to the needles' own edges.
         const double reach = std::ldexp(kNeedleReachVoxels, coarsening) * voxel;
-        collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true, nullptr, !top);
+        NeedleCollapse needles;
+        needles.needleAspect = kCollapseAspect;
+        needles.lowerWorst = needles.measureMove = true;
+        needles.alongCorners = !top;
+        collapseNeedleEdges(mesh, reach, coarser, needles);
         long long flips = flipNeedles(mesh, mVolume, mPlan.axis);
         result.flips = flips;
         // A flip lowers the worse of two triangles, and the better one it made can be a needle a
         // collapse now takes (the gaffer smoke's 118 at level 0): collapses and flips take turns
         // until either finds nothing. Each collapse removes a vertex, so the turns end.
-        while (flips > 0 && collapseNeedleEdges(mesh, reach, coarser, kCollapseAspect, true, true, nullptr, !top) > 0) {
+        while (flips > 0 && collapseNeedleEdges(mesh, reach, coarser, needles) > 0) {
             flips = flipNeedles(mesh, mVolume, mPlan.axis);
             result.flips += flips;
         }
         // Below the top level the short edges go once more: the passes since can free one the
         // first could not take (the hollow Y's level 2 kept one of 0.094 voxel).
-        if (!top && collapseNeedleEdges(mesh, shortEdge, coarser, 0.0, false, false, &thin) > 0)
+        if (!top && collapseNeedleEdges(mesh, shortEdge, coarser, shortEdges) > 0)
             result.flips += flipNeedles(mesh, mVolume, mPlan.axis);
     }
     return std::move(result);

@@ -554,8 +554,7 @@ bool ThinSlabPlanes::holdBoth(const glm::dvec3& a, const glm::dvec3& b) const
 }
 
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect, bool lowerWorst, bool measureMove, const ThinSlabPlanes* thin,
-                              bool alongCorners)
+                              const NeedleCollapse& how)
 {
     // How many copies of a point the coarser level has: two constructions can put a vertex on
     // another bit for bit (a junction part's crossing on the single contour's), and each copy
@@ -581,10 +580,10 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
         // Only short edges may go, unless the move is measured: most triangles have none, which is
         // cheaper to see than their aspect ratio.
         const auto mayGo = [&](std::uint32_t a, std::uint32_t b) {
-            if (measureMove) return true;
+            if (how.measureMove) return true;
             const double squared = glm::dot(p[a] - p[b], p[a] - p[b]);
             return squared <= tolerance2 ||
-                   (thin && squared <= thin->tolerance * thin->tolerance && thin->holdBoth(p[a], p[b]));
+                   (how.thin && squared <= how.thin->tolerance * how.thin->tolerance && how.thin->holdBoth(p[a], p[b]));
         };
         const auto offer = [&](std::uint32_t a, std::uint32_t b) {
             bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
@@ -598,7 +597,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             const bool eitherWay = !keepA && !keepB;
             pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay} : Collapse{b, a, eitherWay});
         };
-        std::vector<bool> needleCorner; // with alongCorners: the needles' corners the coarser level lacks
+        std::vector<bool> needleCorner; // with how.alongCorners: the needles' corners the coarser level lacks
         for (const Triangle& t : mesh.triangles) {
             const int shortEdges =
                 (mayGo(t[0], t[1]) ? 1 : 0) + (mayGo(t[1], t[2]) ? 1 : 0) + (mayGo(t[2], t[0]) ? 1 : 0);
@@ -607,13 +606,14 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             // voxel fanned around its centre leaves needles on its own edges that cannot go (their
             // ends share the third speck vertex: linkAllows), while the fan's edges can (seed 11 of
             // the dense trees: 534 at every level).
-            const bool speck = !measureMove && shortEdges == 3;
-            if (!speck && needleAspect > 0.0 && !(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > needleAspect)) continue;
+            const bool speck = !how.measureMove && shortEdges == 3;
+            if (!speck && how.needleAspect > 0.0 && !(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > how.needleAspect))
+                continue;
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t a = t[k], b = t[(k + 1) % 3];
                 // Each edge once (from either triangle on it when only needles count).
-                if ((a < b || needleAspect > 0.0) && mayGo(a, b)) offer(a, b);
-                if (alongCorners && copies(p[a]) == 0) {
+                if ((a < b || how.needleAspect > 0.0) && mayGo(a, b)) offer(a, b);
+                if (how.alongCorners && copies(p[a]) == 0) {
                     needleCorner.resize(p.size(), false);
                     needleCorner[a] = true;
                 }
@@ -652,7 +652,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             return x.also != kNoVertex && before(p[x.also], p[y.also]);
         });
         pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-        round = collapsePairs(mesh, pairs, Guard{lowerWorst, tolerance});
+        round = collapsePairs(mesh, pairs, Guard{how.lowerWorst, tolerance});
     }
     return collapsed;
 }

@@ -328,7 +328,7 @@ TEST(Quality, ASpeckOfATipCollapsesIntoOnePoint)
     ASSERT_GT(measureQuality(mesh).largestAspect, 100.0);
     // The speck's own triangles, all three edges within the tolerance, go whatever their shape:
     // the speck and its centre become one point, the cone's tip (8 vertices: 6 + tip + bottom).
-    EXPECT_EQ(collapseNeedleEdges(mesh, 0.01, {}, kShortEdgeAspect), 3);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.01, {}, {kShortEdgeAspect}), 3);
     ASSERT_EQ(mesh.vertices.size(), 8u);
     const Topology after = checkTopology(mesh);
     EXPECT_TRUE(after.closed() && after.manifold() && after.oriented() && after.outward());
@@ -338,7 +338,7 @@ TEST(Quality, ASpeckOfATipCollapsesIntoOnePoint)
     EXPECT_LT(measureQuality(mesh).largestAspect, 1.32);
     // A speck wider than the tolerance stays as it is.
     mesh = coneWithASpeckTip(0.1);
-    EXPECT_EQ(collapseNeedleEdges(mesh, 0.01, {}, kShortEdgeAspect), 0);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.01, {}, {kShortEdgeAspect}), 0);
 }
 
 namespace {
@@ -360,7 +360,7 @@ void expectTheSpeckToGoIntoOnePoint(TriangleMesh& mesh)
 {
     const Topology before = checkTopology(mesh);
     ASSERT_TRUE(before.closed() && before.manifold() && before.oriented());
-    EXPECT_EQ(collapseNeedleEdges(mesh, 0.01, {}, kShortEdgeAspect), 2);
+    EXPECT_EQ(collapseNeedleEdges(mesh, 0.01, {}, {kShortEdgeAspect}), 2);
     ASSERT_EQ(mesh.vertices.size(), 6u);
     const Topology after = checkTopology(mesh);
     EXPECT_TRUE(after.closed() && after.manifold() && after.oriented() && after.outward());

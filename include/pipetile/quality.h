@@ -45,6 +45,30 @@ struct ThinSlabPlanes {
     bool holdBoth(const glm::dvec3& a, const glm::dvec3& b) const;
 };
 
+/// Which edges collapseNeedleEdges looks at, and which collapses it makes, past the short ones.
+struct NeedleCollapse {
+    /// Only the edges of triangles whose aspect ratio exceeds this are looked at (0: every
+    /// triangle's), and without measureMove those of specks (triangles whose three edges lie
+    /// within the tolerance, whatever their shape: a speck's needles around it often cannot go,
+    /// its own edges can).
+    double needleAspect = 0.0;
+    /// A collapse is made only where it lowers the largest aspect ratio of the triangles around
+    /// the vertex that goes. Between two new ends, where the end that goes first cannot (a
+    /// triangle would turn over, or the worst would not fall), the other goes instead.
+    bool lowerWorst = false;
+    /// The needles' edges longer than the tolerance go too where the surface moves by no more
+    /// than the tolerance, as far as an edge within it may move it: measured as the distance from
+    /// the vertex that goes to the triangles that take its place, and from points of those
+    /// (centroids, midpoints of their edges at the kept end) to the triangles before.
+    bool measureMove = false;
+    /// An edge whose two ends lie in one of these planes goes as one within the tolerance does
+    /// where it is no longer than thin->tolerance.
+    const ThinSlabPlanes* thin = nullptr;
+    /// With measureMove, a needle's corners that the coarser level lacks may also go along their
+    /// other edges, and their neighbours into them, as the needles' own edges do.
+    bool alongCorners = false;
+};
+
 /// Removes the vertices that make needles. Each end of an edge no longer than `tolerance` (world
 /// units) goes into the other end, the edge's two triangles with it, unless it is a vertex of the
 /// level below (`coarser`: its positions, one entry per copy; empty for level 0). So each level's
@@ -59,25 +83,11 @@ struct ThinSlabPlanes {
 /// point, a triangle of no area), or two rays meet a contour thinner than a voxel. Every triangle
 /// on such an edge is a needle whatever the diagonals (its aspect ratio is about the distance to
 /// its third corner over the edge's length), so no flip removes it.
-/// Only the edges of triangles whose aspect ratio exceeds `needleAspect` are looked at, and
-/// without `measureMove` those of specks (triangles whose three edges lie within `tolerance`,
-/// whatever their shape: a speck's needles around it often cannot go, its own edges can); with
-/// `lowerWorst`, a collapse is made only where it lowers the largest aspect ratio of the
-/// triangles around the vertex that goes. Between two new ends, where the end that goes first
-/// cannot (a triangle would turn over, or the worst would not fall), the other goes instead.
-/// With `measureMove`, the needles' edges longer than `tolerance` go too where the surface moves
-/// by no more than `tolerance`, as far as an edge within it may move it: measured as the
-/// distance from the vertex that goes to the triangles that take its place, and from points of
-/// those (centroids, midpoints of their edges at the kept end) to the triangles before.
-/// Deterministic; the surface moves by at most the edges' length, or `tolerance` past it.
-/// With `thin`, an edge whose two ends lie in one of its planes goes as one within `tolerance`
-/// does where it is no longer than `thin->tolerance`.
-/// With `alongCorners` (and `measureMove`), a needle's corners that the coarser level lacks may
-/// also go along their other edges, and their neighbours into them, as the needles' own edges do.
+/// `how` (NeedleCollapse) widens the edges that go past the short ones. Deterministic; the
+/// surface moves by at most the edges' length, or the tolerance past it.
 /// @return the number of edges collapsed.
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
-                              double needleAspect = 0.0, bool lowerWorst = false, bool measureMove = false,
-                              const ThinSlabPlanes* thin = nullptr, bool alongCorners = false);
+                              const NeedleCollapse& how = {});
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
