@@ -266,6 +266,7 @@ bool before(const glm::dvec3& a, const glm::dvec3& b)
 struct Guard {
     bool lowerWorst = false; // lower the largest aspect ratio of the triangles around the vertex that goes
     double reach = 0.0; // world units: an edge longer than this goes only where the surface moves less (collapseMove)
+    bool everywhere = false; // collapseMove samples the new triangles all over, not at a few points
 };
 
 using Corners = std::array<glm::dvec3, 3>;
@@ -285,8 +286,12 @@ double fanDistance(const glm::dvec3& q, const std::vector<Corners>& fan)
 // third edge is an edge before too). The samples matter where a lies off b's tangent plane: a
 // cone's tip moved onto its base's rim keeps b near another tip vertex, but the side it drags
 // along leaves the cone by voxels.
+// `everywhere`, the samples cover each new triangle on a grid no coarser than the edge a-b: a
+// triangle many times longer than the edge (a fan across a slab to a contour 30 voxels long)
+// can leave the triangles before far from its centroid and midpoints (the standing torus sliced
+// along y: 4.5 voxels off at level 1).
 double collapseMove(const glm::dvec3& a, const glm::dvec3& b, const std::vector<Corners>& before,
-                    const std::vector<Corners>& after)
+                    const std::vector<Corners>& after, bool everywhere)
 {
     double move = fanDistance(b, after);
     for (const Corners& t : after) {
@@ -296,6 +301,17 @@ double collapseMove(const glm::dvec3& a, const glm::dvec3& b, const std::vector<
                 move = std::max(move, fanDistance((a + t[(k + 1) % 3]) / 2.0, before));
                 move = std::max(move, fanDistance((a + t[(k + 2) % 3]) / 2.0, before));
             }
+        if (!everywhere) continue;
+        constexpr int kMostSteps = 16; // per edge: 150 samples at most
+        const double longest =
+            std::max({glm::distance(t[0], t[1]), glm::distance(t[1], t[2]), glm::distance(t[2], t[0])});
+        const int n = std::clamp(static_cast<int>(std::ceil(longest / glm::distance(a, b))), 2, kMostSteps);
+        for (int i = 0; i <= n; ++i)
+            for (int j = 0; i + j <= n; ++j)
+                if (i < n && j < n && i + j > 0) // the corners lie on both surfaces
+                    move = std::max(
+                        move,
+                        fanDistance(t[0] + (t[1] - t[0]) * (double(i) / n) + (t[2] - t[0]) * (double(j) / n), before));
     }
     return move;
 }
@@ -337,7 +353,7 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
     // the worst it takes away: on Gaffer's smoke one moved a vertex onto the line through two
     // others, a triangle of aspect 4.5e14 at levels 2 and 3.
     if (worstAfter > kLargestAspect && !(worstAfter <= worstBefore)) return false;
-    return !far || collapseMove(p[a], p[b], before, after) <= guard.reach;
+    return !far || collapseMove(p[a], p[b], before, after, guard.everywhere) <= guard.reach;
 }
 
 constexpr std::uint32_t kNoVertex = std::numeric_limits<std::uint32_t>::max();
@@ -349,9 +365,11 @@ struct Collapse {
     std::uint32_t keep, go;
     bool eitherWay;
     std::uint32_t also = kNoVertex;
+    bool alongCorner = false; // offered along a needle's corner, not its own edge: measured everywhere
     bool operator==(const Collapse& o) const
     {
-        return keep == o.keep && go == o.go && eitherWay == o.eitherWay && also == o.also;
+        return keep == o.keep && go == o.go && eitherWay == o.eitherWay && also == o.also &&
+               alongCorner == o.alongCorner;
     }
 };
 
@@ -438,9 +456,11 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
         const std::vector<std::uint32_t>& from = around[b];
         into.insert(into.end(), from.begin(), from.end());
     };
-    const auto tryCollapse = [&](std::uint32_t a, std::uint32_t b) {
+    Guard cornerGuard = guard;
+    cornerGuard.everywhere = true;
+    const auto tryCollapse = [&](std::uint32_t a, std::uint32_t b, bool alongCorner) {
         if (a == b || parent[b] != b || !linkAllows(mesh, around, gone, parent, a, b, on) ||
-            !collapseImproves(mesh, around[b], gone, parent, a, {b}, guard))
+            !collapseImproves(mesh, around[b], gone, parent, a, {b}, alongCorner ? cornerGuard : guard))
             return false;
         apply(a, b);
         return true;
@@ -481,7 +501,8 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
         // The other way round, where the first fails: a needle's short edge whose preferred end
         // cannot go (it would turn a triangle over, or raise the worst aspect around, as on the
         // gaffer smoke's 266 at level 0 that the other way lowers to 46) may still go the other.
-        if (tryCollapse(a, c.go) || (c.eitherWay && a == c.keep && tryCollapse(c.go, a))) ++collapsed;
+        if (tryCollapse(a, c.go, c.alongCorner) || (c.eitherWay && a == c.keep && tryCollapse(c.go, a, c.alongCorner)))
+            ++collapsed;
     }
     if (collapsed == 0) return 0;
 
@@ -585,7 +606,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             return squared <= tolerance2 ||
                    (how.thin && squared <= how.thin->tolerance * how.thin->tolerance && how.thin->holdBoth(p[a], p[b]));
         };
-        const auto offer = [&](std::uint32_t a, std::uint32_t b) {
+        const auto offer = [&](std::uint32_t a, std::uint32_t b, bool alongCorner) {
             bool keepA = copies(p[a]) > 0, keepB = copies(p[b]) > 0;
             if (keepA && keepB) {
                 if (p[a] != p[b] || copies(p[a]) > 1) return;
@@ -595,7 +616,8 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             // between copies of one point, which both ways of building a level number alike).
             const bool first = before(p[a], p[b]) || (p[a] == p[b] && a < b);
             const bool eitherWay = !keepA && !keepB;
-            pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay} : Collapse{b, a, eitherWay});
+            pairs.push_back(keepA || (!keepB && first) ? Collapse{a, b, eitherWay, kNoVertex, alongCorner}
+                                                       : Collapse{b, a, eitherWay, kNoVertex, alongCorner});
         };
         std::vector<bool> needleCorner; // with how.alongCorners: the needles' corners the coarser level lacks
         for (const Triangle& t : mesh.triangles) {
@@ -612,7 +634,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             for (int k = 0; k < 3; ++k) {
                 const std::uint32_t a = t[k], b = t[(k + 1) % 3];
                 // Each edge once (from either triangle on it when only needles count).
-                if ((a < b || how.needleAspect > 0.0) && mayGo(a, b)) offer(a, b);
+                if ((a < b || how.needleAspect > 0.0) && mayGo(a, b)) offer(a, b, false);
                 if (how.alongCorners && copies(p[a]) == 0) {
                     needleCorner.resize(p.size(), false);
                     needleCorner[a] = true;
@@ -635,7 +657,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             for (const Triangle& t : mesh.triangles)
                 for (int k = 0; k < 3; ++k) {
                     const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-                    if (needleCorner[a] || needleCorner[b]) offer(a, b);
+                    if (needleCorner[a] || needleCorner[b]) offer(a, b, true);
                 }
         // The shortest edges first: a longer collapse can leave a shorter edge beside it unable
         // to go (a crop of the smoke: 3140 at its top level where a contour thinner than a voxel
@@ -648,6 +670,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             if (lx != ly) return lx < ly;
             if (p[x.go] != p[y.go]) return before(p[x.go], p[y.go]);
             if (p[x.keep] != p[y.keep]) return before(p[x.keep], p[y.keep]);
+            if (x.alongCorner != y.alongCorner) return y.alongCorner; // the looser measure first
             if ((x.also != kNoVertex) != (y.also != kNoVertex)) return y.also != kNoVertex;
             return x.also != kNoVertex && before(p[x.also], p[y.also]);
         });
