@@ -1741,7 +1741,7 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // needle over 100 from 142 to 77, and levels 0 to 2 lost 2.3%, 1.3% and 1% of their
         // triangles for 2.6%, 2.3% and 1.5% more mean distance to the isosurface (the README's
         // triangle quality gives the outlier; measuring those collapses all over their triangles
-        // took it back, for 3 more levels with a needle). At the top level too it took them to
+        // took it back, for 2 more levels with a needle). At the top level too it took them to
         // 76, but it moved meshes by up to 0.4 voxel there (a Y sliced across its fork from 0.82
         // to 1.24 voxels off), so the top level keeps to the needles' own edges.
         const double reach = std::ldexp(kNeedleReachVoxels, coarsening) * voxel;

@@ -302,7 +302,9 @@ double collapseMove(const glm::dvec3& a, const glm::dvec3& b, const std::vector<
                 move = std::max(move, fanDistance((a + t[(k + 2) % 3]) / 2.0, before));
             }
         if (!everywhere) continue;
-        constexpr int kMostSteps = 16; // per edge: 150 samples at most
+        // At most 42 samples: 16 steps an edge (150) cost the tree sliced along y 6% of its time
+        // where 8 cost 3%, and kept one more needle over 100 in the evaluation.
+        constexpr int kMostSteps = 8;
         const double longest =
             std::max({glm::distance(t[0], t[1]), glm::distance(t[1], t[2]), glm::distance(t[2], t[0])});
         const int n = std::clamp(static_cast<int>(std::ceil(longest / glm::distance(a, b))), 2, kMostSteps);
