@@ -515,3 +515,20 @@ TEST(Quality, NoNeedlesAtAConesTip)
     // isosurface, as it was.
     expectNoNeedlesOnRealData("cip_cone_vessel_density.vdb");
 }
+
+TEST(Quality, ACornerCollapseMovesTheSurfaceNoFartherThanItsReach)
+{
+    // The standing torus sliced along y: below the top level a needle's corner may go along its
+    // other edges where the surface moves no farther than the level's reach (kNeedleReachVoxels,
+    // twice as far each level coarser: 1.2 voxels at level 1 of 4). Measured at each new
+    // triangle's centroid and two edge midpoints, a fan 33 voxels long passed, and level 1 went
+    // from 0.83 voxel off the isosurface to 4.5; measured over the whole triangle it stays
+    // within the reach of where it was.
+    const Volume& volume = test::cachedSample("torus-standing");
+    MeshOptions options;
+    options.levels = 4;
+    options.slicing.axis = Axis::Y;
+    const Reconstruction reconstruction(volume, options);
+    const Validation v = Validator(volume).validate(reconstruction.buildLevel(1).mesh);
+    EXPECT_LE(v.symmetric.max, (0.83 + 4 * kNeedleReachVoxels) * v.voxel);
+}
