@@ -1763,6 +1763,9 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // first could not take (the hollow Y's level 2 kept one of 0.094 voxel).
         if (!top && collapseNeedleEdges(mesh, shortEdge, coarser, shortEdges) > 0)
             result.flips += flipNeedles(mesh, mVolume, mPlan.axis);
+        // What the collapses leave of a speck far thinner than a voxel can be a pillow of needles
+        // (the smoke at iso 0.1 along y: aspect 541 at every level); it becomes a spindle.
+        inflatePillows(mesh, mVolume, coarser);
     }
     return std::move(result);
 }

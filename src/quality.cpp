@@ -4,7 +4,9 @@
 
 #include <pipetile/quality.h>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 
 #include <algorithm>
 #include <array>
@@ -13,6 +15,7 @@
 #include <deque>
 #include <iterator>
 #include <limits>
+#include <map>
 
 namespace pipetile {
 
@@ -680,6 +683,92 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
         round = collapsePairs(mesh, pairs, Guard{how.lowerWorst, tolerance});
     }
     return collapsed;
+}
+
+long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::vector<glm::dvec3>& coarser)
+{
+    // A pillow's three vertices lie on two triangles each, and those two are the same triangle
+    // twice; most meshes have no vertex on fewer than three.
+    std::vector<int> valence(mesh.vertices.size(), 0);
+    for (const Triangle& t : mesh.triangles)
+        for (const std::uint32_t v : t) ++valence[v];
+    std::map<std::array<std::uint32_t, 3>, std::vector<std::uint32_t>> byCorners;
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+        std::array<std::uint32_t, 3> corners = mesh.triangles[f];
+        if (valence[corners[0]] != 2 || valence[corners[1]] != 2 || valence[corners[2]] != 2) continue;
+        std::sort(corners.begin(), corners.end());
+        byCorners[corners].push_back(f);
+    }
+    if (byCorners.empty()) return 0;
+    std::vector<glm::dvec3> kept = coarser;
+    std::sort(kept.begin(), kept.end(), before);
+    const auto inCoarser = [&](const glm::dvec3& q) { return std::binary_search(kept.begin(), kept.end(), q, before); };
+
+    std::vector<glm::dvec3>& p = mesh.vertices;
+    std::vector<bool> gone(p.size(), false);
+    long long inflated = 0;
+    for (const auto& [corners, faces] : byCorners) {
+        if (faces.size() != 2 || !(aspectRatio(p[corners[0]], p[corners[1]], p[corners[2]]) > kLargestAspect)) continue;
+        // The vertex that goes: one the coarser level lacks, leaving the longest segment (then the
+        // later by position), so that every level picks the same tips.
+        int drop = -1;
+        double longest = 0.0;
+        for (int k = 0; k < 3; ++k) {
+            const glm::dvec3 &x = p[corners[(k + 1) % 3]], &y = p[corners[(k + 2) % 3]];
+            const double length = glm::length(y - x);
+            if (inCoarser(p[corners[k]]) || length < longest) continue;
+            if (drop >= 0 && length == longest && before(p[corners[k]], p[corners[drop]])) continue;
+            drop = k;
+            longest = length;
+        }
+        if (drop < 0 || !(longest > 0.0)) continue;
+        std::uint32_t a = corners[(drop + 1) % 3], b = corners[(drop + 2) % 3];
+        if (before(p[b], p[a])) std::swap(a, b);
+        const glm::dvec3 axis = (p[b] - p[a]) / longest, middle = 0.5 * (p[a] + p[b]);
+        // A side of the axis: across the coordinate axis it leans least along.
+        glm::dvec3 across(0.0);
+        const glm::dvec3 lean = glm::abs(axis);
+        across[lean.x <= lean.y && lean.x <= lean.z ? 0 : lean.y <= lean.z ? 1 : 2] = 1.0;
+        const glm::dvec3 side = glm::normalize(glm::cross(axis, across)), other = glm::cross(axis, side);
+        const double radius = longest / (2.0 * std::sqrt(2.0));
+        const std::uint32_t first = static_cast<std::uint32_t>(p.size());
+        double around = 0.0;
+        const double half = 0.5, sine = 0.5 * std::sqrt(3.0); // the ring at 0, 120 and 240 degrees
+        for (const glm::dvec2 at : {glm::dvec2(1.0, 0.0), glm::dvec2(-half, sine), glm::dvec2(-half, -sine)}) {
+            p.push_back(middle + radius * (at.x * side + at.y * other));
+            around += volume.signedField(p.back()) / 3.0;
+        }
+        // The field is lowest inside: a speck's segment lies lower than its ring, a void's higher.
+        const bool intoVoid = volume.signedField(middle) > around;
+        std::vector<Triangle> spindle;
+        for (std::uint32_t i = 0; i < 3; ++i) {
+            const std::uint32_t r = first + i, s = first + (i + 1) % 3;
+            for (Triangle t : {Triangle{a, s, r}, Triangle{b, r, s}}) {
+                const glm::dvec3 centre = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0;
+                if ((glm::dot(faceNormal(mesh, t), centre - middle) < 0.0) != intoVoid) std::swap(t[1], t[2]);
+                spindle.push_back(t);
+            }
+        }
+        mesh.triangles[faces[0]] = spindle[0];
+        mesh.triangles[faces[1]] = spindle[1];
+        mesh.triangles.insert(mesh.triangles.end(), spindle.begin() + 2, spindle.end());
+        gone[corners[drop]] = true;
+        ++inflated;
+    }
+    if (inflated == 0) return 0;
+    // The vertices that go leave no gap: the others keep their order.
+    std::vector<std::uint32_t> newId(p.size(), 0);
+    std::vector<glm::dvec3> vertices;
+    vertices.reserve(p.size());
+    for (std::uint32_t v = 0; v < p.size(); ++v)
+        if (v >= gone.size() || !gone[v]) {
+            newId[v] = static_cast<std::uint32_t>(vertices.size());
+            vertices.push_back(p[v]);
+        }
+    for (Triangle& t : mesh.triangles)
+        for (std::uint32_t& v : t) v = newId[v];
+    p = std::move(vertices);
+    return inflated;
 }
 
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis)

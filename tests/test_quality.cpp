@@ -516,6 +516,81 @@ TEST(Quality, NoNeedlesAtAConesTip)
     expectNoNeedlesOnRealData("cip_cone_vessel_density.vdb");
 }
 
+namespace {
+
+// A pillow along z from `a`, one unit long, its third corner a thousandth below and beside the top: two
+// triangles over the same three vertices (aspect about 870), ids in the order given.
+TriangleMesh pillowAt(const glm::dvec3& a, const std::array<std::uint32_t, 3>& order = {0, 1, 2})
+{
+    const std::array<glm::dvec3, 3> corners{a, a + glm::dvec3(0.0, 0.0, 1.0), a + glm::dvec3(0.001, 0.0, 0.999)};
+    TriangleMesh mesh;
+    for (const std::uint32_t k : order) mesh.vertices.push_back(corners[k]);
+    const auto id = [&](std::uint32_t k) {
+        return static_cast<std::uint32_t>(std::find(order.begin(), order.end(), k) - order.begin());
+    };
+    mesh.triangles = {{id(0), id(1), id(2)}, {id(0), id(2), id(1)}};
+    return mesh;
+}
+
+std::vector<glm::dvec3> sortedVertices(std::vector<glm::dvec3> vertices)
+{
+    std::sort(vertices.begin(), vertices.end(), [](const glm::dvec3& p, const glm::dvec3& q) {
+        return p.x != q.x ? p.x < q.x : p.y != q.y ? p.y < q.y : p.z < q.z;
+    });
+    return vertices;
+}
+
+} // namespace
+
+// What the collapses leave of a speck far thinner than a voxel (the smoke at iso 0.1 along y:
+// aspect 541 at every level) becomes a spindle: the pillow's two corners farthest apart as its
+// tips, three vertices around the middle, six equilateral triangles: a closed sphere still. Its
+// side comes from the field's curvature: inside the straight capsule's wall (1.5 voxels in, where
+// the narrow band holds distances) it faces outward; in the tank's cavity (1.5 voxels from its
+// wall) it faces into the cavity, as the void's own wall does.
+TEST(Quality, APillowOfNeedlesBecomesASpindle)
+{
+    for (const bool inVoid : {false, true}) {
+        SCOPED_TRACE(inVoid ? "tank's cavity" : "capsule's wall");
+        const Volume& volume = test::cachedSample(inVoid ? "tank" : "straight");
+        const glm::dvec3 a = inVoid ? glm::dvec3(32.0 + 14.5, 32.0, 56.0) : glm::dvec3(32.0 + 8.5, 32.0, 64.0);
+        TriangleMesh mesh = pillowAt(a);
+        ASSERT_GT(measureQuality(mesh).largestAspect, kLargestAspect);
+        EXPECT_EQ(inflatePillows(mesh, volume, {}), 1);
+        const Topology t = checkTopology(mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+        EXPECT_EQ(t.euler, 2);
+        EXPECT_EQ(t.components, 1);
+        EXPECT_EQ(t.outward(), !inVoid);
+        EXPECT_EQ(mesh.vertices.size(), 5u);
+        EXPECT_EQ(mesh.triangles.size(), 6u);
+        EXPECT_NEAR(measureQuality(mesh).largestAspect, 1.0, 1e-9);
+        // The tips are the corners farthest apart; the third goes.
+        EXPECT_EQ(mesh.vertices[0], a);
+        EXPECT_EQ(mesh.vertices[1], a + glm::dvec3(0.0, 0.0, 1.0));
+        // The same spindle, bit for bit, whatever the ids: so the levels nest.
+        TriangleMesh permuted = pillowAt(a, {2, 0, 1});
+        inflatePillows(permuted, volume, {});
+        EXPECT_EQ(sortedVertices(permuted.vertices), sortedVertices(mesh.vertices));
+    }
+    const Volume& volume = test::cachedSample("straight");
+    const glm::dvec3 a(32.0 + 8.5, 32.0, 64.0);
+    // A vertex the coarser level has stays: with the third corner there, the bottom goes.
+    TriangleMesh mesh = pillowAt(a);
+    const glm::dvec3 third = mesh.vertices[2], top = mesh.vertices[1];
+    EXPECT_EQ(inflatePillows(mesh, volume, {third, top}), 1);
+    EXPECT_EQ(std::count(mesh.vertices.begin(), mesh.vertices.end(), a), 0);
+    EXPECT_EQ(std::count(mesh.vertices.begin(), mesh.vertices.end(), third), 1);
+    // A pillow of no needle is left alone, as is one whose three corners the coarser level has.
+    TriangleMesh fat;
+    fat.vertices = {a, a + glm::dvec3(0.0, 0.0, 1.0), a + glm::dvec3(0.0, 1.0, 0.0)};
+    fat.triangles = {{0, 1, 2}, {0, 2, 1}};
+    EXPECT_EQ(inflatePillows(fat, volume, {}), 0);
+    TriangleMesh kept = pillowAt(a);
+    EXPECT_EQ(inflatePillows(kept, volume, kept.vertices), 0);
+    EXPECT_EQ(kept.triangles.size(), 2u);
+}
+
 TEST(Quality, ACornerCollapseMovesTheSurfaceNoFartherThanItsReach)
 {
     // The standing torus sliced along y: below the top level a needle's corner may go along its

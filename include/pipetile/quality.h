@@ -89,6 +89,20 @@ struct NeedleCollapse {
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               const NeedleCollapse& how = {});
 
+/// Rebuilds each pillow whose triangles are needles as a spindle. A pillow is a component of two
+/// triangles over the same three vertices: a closed surface of no volume, what the collapses leave
+/// of a speck thinner than they may go (the smoke at iso 0.1: a sliver of field one voxel long
+/// and a ten-thousandth across, which the isosurface meshes as 20 needles). Two of its vertices,
+/// the farthest apart that the coarser level (`coarser`, as collapseNeedleEdges takes it) does not
+/// lack, stay as the spindle's tips; the third goes. Three new vertices ring the middle of the
+/// tips' segment, at the radius that makes the six triangles equilateral (0.35 of the segment's
+/// length): the same from the same tips, so levels still nest. The spindle faces away from its
+/// segment, or toward it where the field is higher there than around it (a void). The mesh stays
+/// closed, manifold and oriented, with the same components and Euler characteristic; vertices
+/// keep their order, the new ones last. Deterministic.
+/// @return the number of pillows rebuilt.
+long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::vector<glm::dvec3>& coarser);
+
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
 /// few voxels far above. Every such edge of a triangle over kShortEdgeAspect, or of a speck (all
