@@ -1794,16 +1794,6 @@ bool straysFrom(const Volume& volume, const std::vector<glm::dvec3>& vertices, c
     return glm::distance(p, vertices[t[0]]) > reach * volume.smallestVoxel() && !volume.surfaceWithin(p, reach / 0.88);
 }
 
-// Whether a band between contours of profiles `lower` and `upper`, `thickness` apart, may fan one
-// vertex to an arc across its slab and take its cells instead: as strayingBandPatch asks, one in a
-// slab thicker than the events' whose contours change shape by more than kShapeChange (a fan
-// joins contours that differ by about the arc's reach). The cells of a thinner slab leave needles
-// (two capsule trees sliced along x: up to 734 where such bands took them).
-bool mayFan(const RadialProfile& lower, const RadialProfile& upper, double thickness)
-{
-    return thickness > kEventThickness && profileChange(lower, upper) > kShapeChange;
-}
-
 } // namespace
 
 std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<bool>& asked, double reach)
@@ -1832,6 +1822,14 @@ std::vector<Triangle> Reconstruction::Assembly::bandOf(const Contour& lower, con
         return std::move(*band);
     const std::vector<glm::dvec3> a(vertices.begin(), vertices.begin() + m), b(vertices.begin() + m, vertices.end());
     return withoutFullFans(tileLeastAreaNearest(a, b), m, static_cast<std::uint32_t>(b.size()));
+}
+
+bool Reconstruction::bandMayStray(const SliceLoop& lower, const SliceLoop& upper, double thickness)
+{
+    if (!(thickness > kEventThickness)) return false;
+    if (profileChange(lower.profile, upper.profile) > kShapeChange) return true;
+    const double smaller = std::min(std::abs(lower.loop.area), std::abs(upper.loop.area));
+    return glm::distance(lower.view.center, upper.view.center) > std::sqrt(smaller / M_PI);
 }
 
 bool Reconstruction::partsMayFan(const Junction& junction) const
@@ -1877,8 +1875,8 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
             if (mLoops[m.first][m.second].fromLevel <= top) kept.push_back(m);
         for (std::size_t k = 1; k < kept.size(); ++k) {
             const auto lower = kept[k - 1], upper = kept[k];
-            if (!mayFan(mLoops[lower.first][lower.second].profile, mLoops[upper.first][upper.second].profile,
-                        std::abs(mPositions[upper.first] - mPositions[lower.first])))
+            if (!bandMayStray(mLoops[lower.first][lower.second], mLoops[upper.first][upper.second],
+                              std::abs(mPositions[upper.first] - mPositions[lower.first])))
                 continue;
             const Contour& a = contourOf(lower);
             const Contour& b = contourOf(upper);

@@ -260,7 +260,15 @@ private:
     /// tiler, or whose shape, from its partner's centre, differs from the partner's by more than
     /// kShapeChange pixels (a fan joins contours that differ by about its reach).
     bool partsMayFan(const Junction& junction) const;
-    /// The forks and merges, and the bands that may fan (multires.cpp, mayFan), whose triangles
+    /// Whether a band between two contours `thickness` voxels apart may stray from the isosurface
+    /// at its top level, and take its slab's cells instead: in a slab thicker than the events' (the
+    /// cells of a thinner one leave needles: two capsule trees sliced along x, up to 734 where such
+    /// bands took them), one whose contours change shape by more than kShapeChange pixels (a fan
+    /// joins contours that differ by about its reach), or lie farther apart than the smaller one's
+    /// radius (the band leans across its slab, through whatever lies between: a crop of the smoke,
+    /// a void a voxel across drifting two in one slab, 1.04 voxels off).
+    static bool bandMayStray(const SliceLoop& lower, const SliceLoop& upper, double thickness);
+    /// The forks and merges, and the bands that may stray (bandMayStray), whose triangles
     /// at the top level stray more than a voxel from the isosurface as far as the field shows
     /// (Volume::surfaceWithin), and whose cells close: junctions as the level tiles them, bands
     /// from their own two contours.
