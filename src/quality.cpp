@@ -533,6 +533,42 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
     return collapsed;
 }
 
+// The six triangles of a spindle with tips a and b (a first by position): three vertices, added
+// to the mesh, ring the middle of ab at the radius that makes every triangle equilateral. They
+// face away from ab, or toward it where the field is higher there than on the ring: the field is
+// lowest inside, so a speck's segment lies lower than its ring, a void's higher.
+std::array<Triangle, 6> spindleBetween(TriangleMesh& mesh, const Volume& volume, std::uint32_t a, std::uint32_t b)
+{
+    std::vector<glm::dvec3>& p = mesh.vertices;
+    const double length = glm::distance(p[a], p[b]);
+    const glm::dvec3 axis = (p[b] - p[a]) / length, middle = 0.5 * (p[a] + p[b]);
+    // A side of the axis: across the coordinate axis it leans least along.
+    glm::dvec3 across(0.0);
+    const glm::dvec3 lean = glm::abs(axis);
+    across[lean.x <= lean.y && lean.x <= lean.z ? 0 : lean.y <= lean.z ? 1 : 2] = 1.0;
+    const glm::dvec3 side = glm::normalize(glm::cross(axis, across)), other = glm::cross(axis, side);
+    const double radius = length / (2.0 * std::sqrt(2.0));
+    const std::uint32_t first = static_cast<std::uint32_t>(p.size());
+    double around = 0.0;
+    const double half = 0.5, sine = 0.5 * std::sqrt(3.0); // the ring at 0, 120 and 240 degrees
+    for (const glm::dvec2 at : {glm::dvec2(1.0, 0.0), glm::dvec2(-half, sine), glm::dvec2(-half, -sine)}) {
+        p.push_back(middle + radius * (at.x * side + at.y * other));
+        around += volume.signedField(p.back()) / 3.0;
+    }
+    const bool intoVoid = volume.signedField(middle) > around;
+    std::array<Triangle, 6> spindle;
+    for (std::uint32_t i = 0; i < 3; ++i) {
+        const std::uint32_t r = first + i, s = first + (i + 1) % 3;
+        spindle[2 * i] = {a, s, r};
+        spindle[2 * i + 1] = {b, r, s};
+    }
+    for (Triangle& t : spindle) {
+        const glm::dvec3 centre = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0;
+        if ((glm::dot(faceNormal(mesh, t), centre - middle) < 0.0) != intoVoid) std::swap(t[1], t[2]);
+    }
+    return spindle;
+}
+
 } // namespace
 
 glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
@@ -724,31 +760,7 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
         if (drop < 0 || !(longest > 0.0)) continue;
         std::uint32_t a = corners[(drop + 1) % 3], b = corners[(drop + 2) % 3];
         if (before(p[b], p[a])) std::swap(a, b);
-        const glm::dvec3 axis = (p[b] - p[a]) / longest, middle = 0.5 * (p[a] + p[b]);
-        // A side of the axis: across the coordinate axis it leans least along.
-        glm::dvec3 across(0.0);
-        const glm::dvec3 lean = glm::abs(axis);
-        across[lean.x <= lean.y && lean.x <= lean.z ? 0 : lean.y <= lean.z ? 1 : 2] = 1.0;
-        const glm::dvec3 side = glm::normalize(glm::cross(axis, across)), other = glm::cross(axis, side);
-        const double radius = longest / (2.0 * std::sqrt(2.0));
-        const std::uint32_t first = static_cast<std::uint32_t>(p.size());
-        double around = 0.0;
-        const double half = 0.5, sine = 0.5 * std::sqrt(3.0); // the ring at 0, 120 and 240 degrees
-        for (const glm::dvec2 at : {glm::dvec2(1.0, 0.0), glm::dvec2(-half, sine), glm::dvec2(-half, -sine)}) {
-            p.push_back(middle + radius * (at.x * side + at.y * other));
-            around += volume.signedField(p.back()) / 3.0;
-        }
-        // The field is lowest inside: a speck's segment lies lower than its ring, a void's higher.
-        const bool intoVoid = volume.signedField(middle) > around;
-        std::vector<Triangle> spindle;
-        for (std::uint32_t i = 0; i < 3; ++i) {
-            const std::uint32_t r = first + i, s = first + (i + 1) % 3;
-            for (Triangle t : {Triangle{a, s, r}, Triangle{b, r, s}}) {
-                const glm::dvec3 centre = (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0;
-                if ((glm::dot(faceNormal(mesh, t), centre - middle) < 0.0) != intoVoid) std::swap(t[1], t[2]);
-                spindle.push_back(t);
-            }
-        }
+        const std::array<Triangle, 6> spindle = spindleBetween(mesh, volume, a, b);
         mesh.triangles[faces[0]] = spindle[0];
         mesh.triangles[faces[1]] = spindle[1];
         mesh.triangles.insert(mesh.triangles.end(), spindle.begin() + 2, spindle.end());
