@@ -966,14 +966,16 @@ class GraphBuilder {
 public:
     GraphBuilder(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes, double minThickness,
                  double maxShapeChange, const std::function<int(double w)>& addPlane,
-                 const std::function<void()>& dropLastPlane)
+                 const std::function<void()>& dropLastPlane,
+                 const std::vector<std::pair<double, double>>& thinJunctions)
         : mVolume(volume),
           mPlan(plan),
           mPlanes(planes),
           mMinThickness(minThickness),
           mMaxShapeChange(maxShapeChange),
           mAddPlane(addPlane),
-          mDropLastPlane(dropLastPlane)
+          mDropLastPlane(dropLastPlane),
+          mThinJunctions(thinJunctions)
     {
     }
 
@@ -1008,21 +1010,28 @@ private:
     double mMinThickness, mMaxShapeChange;
     const std::function<int(double w)>& mAddPlane;
     const std::function<void()>& mDropLastPlane;
+    const std::vector<std::pair<double, double>>& mThinJunctions;
 };
 
 // How thin the slab must get: an unresolved piece (two saddles in one slab, say) is halved down
 // to an eighth of minThickness, where events at different heights fall apart; a wall ending with
 // several holes, or a band changing shape fast, to a quarter; a fork or merge down to
-// minThickness; anything else is left as it is (0).
+// minThickness, or an eighth of it within the ranges of thinJunctions (forks and merges whose
+// parts strayed in a first build and whose cells do not close); anything else is left as it is (0).
 double GraphBuilder::thickness(int below, int above, const std::vector<SlabPiece>& pieces) const
 {
+    const double wBelow = mPlanes[below].w, wAbove = mPlanes[above].w;
+    const bool thin =
+        std::any_of(mThinJunctions.begin(), mThinJunctions.end(),
+                    [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
+    const double junction = thin ? mMinThickness / 8.0 : mMinThickness;
     double target = 0.0;
     for (const SlabPiece& p : pieces) {
         if (p.kind == EventKind::Unresolved) return mMinThickness / 8.0;
         // A face with several holes is flat: it must lie where the wall ends.
         if (p.kind == EventKind::Rim && p.below.size() + p.above.size() > 2) target = mMinThickness / 4.0;
         if (p.kind == EventKind::Fork || p.kind == EventKind::Merge)
-            target = target == 0.0 ? mMinThickness : std::min(target, mMinThickness);
+            target = target == 0.0 ? junction : std::min(target, junction);
         // A band's change halves with its slab where the shape changes smoothly; where it does
         // not (the horns of a crescent running along a pipe's open rim), it takes planes closer
         // than minThickness.
@@ -1179,11 +1188,13 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
 
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
-                               const std::function<void()>& dropLastPlane, const std::function<EulerProfile()>& cells)
+                               const std::function<void()>& dropLastPlane, const std::function<EulerProfile()>& cells,
+                               const std::vector<std::pair<double, double>>& thinJunctions)
 {
     ContourGraph graph;
     const int original = static_cast<int>(planes.size());
-    const GraphBuilder builder(volume, plan, planes, minThickness, maxShapeChange, addPlane, dropLastPlane);
+    const GraphBuilder builder(volume, plan, planes, minThickness, maxShapeChange, addPlane, dropLastPlane,
+                               thinJunctions);
     for (int k = 0; k + 1 < original; ++k) builder.refine(k, k + 1, builder.connect(k, k + 1), graph.slabs);
     // Past the first and the last plane (added planes all lie between), out to empty space.
     int last = original - 1;
@@ -1646,7 +1657,8 @@ void Reconstruction::correspond()
         mCells = cellProfile();
         return *mCells;
     };
-    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane, cells);
+    mGraph = buildContourGraph(mVolume, mPlan, planes, kEventThickness, kShapeChange, addPlane, dropLastPlane, cells,
+                               mCellPieces.thinJunctions);
     mStats.addedPlanes = mGraph.addedPlanes;
     mStats.cellMatches = mGraph.cellMatches;
     for (const SliceCounts& counts : dropped) {

@@ -1153,6 +1153,25 @@ TEST(Graph, ABandBetweenContoursThatDriftApartIsAskedWhetherItStrays)
     EXPECT_GT(reconstruction.stats().bandPatches, 0);
 }
 
+// A crop of the smoke at iso 0.2 along x: a fork in a slab half a voxel thick, its crotch at the
+// single contour's plane, whose parts fan 4 voxels across it, 2.02 voxels off at the top level.
+// Its cells count -3 against the piece's -1, so they cannot mesh it; the second build halves its
+// slab down to an eighth of the events' thickness instead (Reconstruction::strayingPieces), and
+// the top level comes within a voxel (0.65), with the isosurface's Euler characteristic.
+TEST(Graph, AStrayingForkWhoseCellsDoNotCloseGetsThinnerSlabs)
+{
+    const Volume volume = smokeCrop({40, 140, 20}, {59, 165, 45}, 0.2);
+    MeshOptions options;
+    options.slicing.axis = Axis::X;
+    const Reconstruction reconstruction(volume, options);
+    const TriangleMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
+    const Validation v = Validator(volume).validate(top);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    const Topology t = checkTopology(top);
+    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+    EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,

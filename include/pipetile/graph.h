@@ -147,7 +147,8 @@ struct EulerProfile {
 double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int b);
 
 /// Builds the graph of `planes` (the slicing plan's planes, in increasing w), adding planes where
-/// a slab holds an event that is not a band or an end (until it is at most `minThickness` thick),
+/// a slab holds an event that is not a band or an end (until it is at most `minThickness` thick;
+/// a fork or merge overlapping one of the `thinJunctions` ranges of w, down to an eighth of it),
 /// or a band whose contours change shape by more than `maxShapeChange` pixels (down to a quarter of
 /// `minThickness`): `addPlane(w)` traces a new plane and returns its index into `planes` (which it
 /// appends to). A plane added below `minThickness` for a band's shape alone must leave bands on
@@ -171,7 +172,8 @@ double shapeChange(const PlaneLoops& below, int a, const PlaneLoops& above, int 
 ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std::vector<PlaneLoops>& planes,
                                double minThickness, double maxShapeChange, const std::function<int(double w)>& addPlane,
                                const std::function<void()>& dropLastPlane,
-                               const std::function<EulerProfile()>& cells = {});
+                               const std::function<EulerProfile()>& cells = {},
+                               const std::vector<std::pair<double, double>>& thinJunctions = {});
 
 /// How a junction's single contour is cut into arcs by its partners (decided once, on the
 /// polygons, so every level has the same cuts). Each point of the polygon goes to the partner

@@ -216,7 +216,10 @@ private:
     struct StrayingPieces {
         std::set<std::array<int, 3>> junctions; // forks and merges: kind, single contour's plane and loop
         std::set<std::pair<int, int>> bands;    // bands: the lower contour's plane and loop
-        bool empty() const { return junctions.empty() && bands.empty(); }
+        // Forks and merges whose cells do not close: their slabs (index space along the axis),
+        // halved to an eighth of the events' thickness (buildContourGraph's thinJunctions).
+        std::vector<std::pair<double, double>> thinJunctions;
+        bool empty() const { return junctions.empty() && bands.empty() && thinJunctions.empty(); }
     };
     /// The stages below, with the pieces `cellPieces` names meshed from their slab's cells where
     /// those close (resolveEvents).
