@@ -1912,8 +1912,8 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     // less (crops of the smoke: a merge whose small branch fanned to an arc of the single contour
     // 4 to 9 voxels away, its cells -5 against the piece's -3, 1.39 voxels off, now 0.94; a fork
     // whose parts fanned 4 voxels, -3 against -1, 2.02, now 0.71). Halved to a quarter, the first
-    // was 1.13 off; either way the hollow Y sliced along y kept needles up to 795 at its top level
-    // (278 before), as its arms lie along the slices.
+    // was 1.13 off and the hollow Y sliced along y had needles up to 13 169; now 795 at its top
+    // level (278 before), as its arms lie along the slices.
     for (auto it = straying.bands.begin(); it != straying.bands.end();)
         it = cellsClose(it->first, it->second, true) ? std::next(it) : straying.bands.erase(it);
     for (auto it = straying.junctions.begin(); it != straying.junctions.end();) {

@@ -274,7 +274,8 @@ private:
     /// The forks and merges, and the bands that may stray (bandMayStray), whose triangles
     /// at the top level stray more than a voxel from the isosurface as far as the field shows
     /// (Volume::surfaceWithin), and whose cells close: junctions as the level tiles them, bands
-    /// from their own two contours.
+    /// from their own two contours. Straying forks and merges whose cells do not close give their
+    /// slabs' ranges instead (StrayingPieces::thinJunctions).
     StrayingPieces strayingPieces() const;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
