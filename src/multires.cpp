@@ -1699,6 +1699,7 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     // level's go. The baselines stay as their papers give them (the optimal tiler's is the least
     // area): only copies of one point go, a millionth of a voxel apart (the aorta's shortest edge
     // is 5e-5 voxel).
+    const Clock::time_point quality = Clock::now();
     const bool paper = mOptions.tiler == TilerKind::ContourTree;
     const double voxel = mVolume.smallestVoxel();
     // Below the top level every such edge goes whatever its triangles' shape: a level's vertices
@@ -1767,6 +1768,7 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // (the smoke at iso 0.1 along y: aspect 541 at every level); it becomes a spindle.
         inflatePillows(mesh, mVolume, coarser);
     }
+    result.qualitySeconds = secondsSince(quality);
     return std::move(result);
 }
 

@@ -434,6 +434,30 @@ bool linkAllows(const TriangleMesh& mesh, VertexFans& around, const std::vector<
     return on.size() == 2 && opposite.size() == 2 && shared == opposite;
 }
 
+// Keeps the vertices that stand for themselves (into[v] == v) in their order, drops the triangles
+// `gone` marks, and moves every corner to the vertex it went into.
+void keepVertices(TriangleMesh& mesh, const std::vector<std::uint32_t>& into, const std::vector<bool>& gone)
+{
+    std::vector<std::uint32_t> newId(mesh.vertices.size(), 0);
+    std::vector<glm::dvec3> vertices;
+    vertices.reserve(mesh.vertices.size());
+    for (std::uint32_t v = 0; v < mesh.vertices.size(); ++v)
+        if (into[v] == v) {
+            newId[v] = static_cast<std::uint32_t>(vertices.size());
+            vertices.push_back(mesh.vertices[v]);
+        }
+    std::vector<Triangle> kept;
+    kept.reserve(mesh.triangles.size());
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+        if (gone[f]) continue;
+        Triangle t = mesh.triangles[f];
+        for (std::uint32_t& w : t) w = newId[into[w]];
+        kept.push_back(t);
+    }
+    mesh.vertices = std::move(vertices);
+    mesh.triangles = std::move(kept);
+}
+
 // Makes the collapses in order, where the collapse keeps the mesh a closed manifold and passes
 // `guard` (collapseImproves); a vertex already collapsed stays where it went. The vertices left
 // keep their order.
@@ -511,25 +535,9 @@ long long collapsePairs(TriangleMesh& mesh, const std::vector<Collapse>& pairs, 
     }
     if (collapsed == 0) return 0;
 
-    // The vertices that named their set stay, in their order; each corner moves to its set's.
-    std::vector<std::uint32_t> newId(p.size(), 0);
-    std::vector<glm::dvec3> vertices;
-    vertices.reserve(p.size() - static_cast<std::size_t>(collapsed));
-    for (std::uint32_t v = 0; v < p.size(); ++v)
-        if (parent[v] == v) {
-            newId[v] = static_cast<std::uint32_t>(vertices.size());
-            vertices.push_back(p[v]);
-        }
-    std::vector<Triangle> kept;
-    kept.reserve(mesh.triangles.size());
-    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
-        if (gone[f]) continue;
-        Triangle t = mesh.triangles[f];
-        for (std::uint32_t& w : t) w = newId[rootOf(parent, w)];
-        kept.push_back(t);
-    }
-    mesh.vertices = std::move(vertices);
-    mesh.triangles = std::move(kept);
+    // The vertices that named their set stay; each corner moves to its set's.
+    for (std::uint32_t v = 0; v < p.size(); ++v) parent[v] = rootOf(parent, v);
+    keepVertices(mesh, parent, gone);
     return collapsed;
 }
 
@@ -741,7 +749,7 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
     const auto inCoarser = [&](const glm::dvec3& q) { return std::binary_search(kept.begin(), kept.end(), q, before); };
 
     std::vector<glm::dvec3>& p = mesh.vertices;
-    std::vector<bool> gone(p.size(), false);
+    std::vector<bool> dropped(p.size(), false);
     long long inflated = 0;
     for (const auto& [corners, faces] : byCorners) {
         if (faces.size() != 2 || !(aspectRatio(p[corners[0]], p[corners[1]], p[corners[2]]) > kLargestAspect)) continue;
@@ -764,22 +772,14 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
         mesh.triangles[faces[0]] = spindle[0];
         mesh.triangles[faces[1]] = spindle[1];
         mesh.triangles.insert(mesh.triangles.end(), spindle.begin() + 2, spindle.end());
-        gone[corners[drop]] = true;
+        dropped[corners[drop]] = true;
         ++inflated;
     }
     if (inflated == 0) return 0;
-    // The vertices that go leave no gap: the others keep their order.
-    std::vector<std::uint32_t> newId(p.size(), 0);
-    std::vector<glm::dvec3> vertices;
-    vertices.reserve(p.size());
-    for (std::uint32_t v = 0; v < p.size(); ++v)
-        if (v >= gone.size() || !gone[v]) {
-            newId[v] = static_cast<std::uint32_t>(vertices.size());
-            vertices.push_back(p[v]);
-        }
-    for (Triangle& t : mesh.triangles)
-        for (std::uint32_t& v : t) v = newId[v];
-    p = std::move(vertices);
+    // The vertices that go leave no gap (no triangle holds them): the others keep their order.
+    std::vector<std::uint32_t> into(p.size());
+    for (std::uint32_t v = 0; v < into.size(); ++v) into[v] = v < dropped.size() && dropped[v] ? kNoVertex : v;
+    keepVertices(mesh, into, std::vector<bool>(mesh.triangles.size(), false));
     return inflated;
 }
 

@@ -152,6 +152,7 @@ json levelReport(const LevelMesh& level, bool topology)
         {"built_by", level.level == 0 ? "casting every ray" : "refining the previous level"},
         {"casting_seconds", level.castingSeconds},
         {"tiling_seconds", level.tilingSeconds},
+        {"quality_seconds", level.qualitySeconds},
         {"tiling_bytes", level.tilingBytes},
         {"contours", level.contours},
         {"skipped_contours", level.skippedContours},

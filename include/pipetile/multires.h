@@ -67,6 +67,7 @@ struct LevelMesh {
     double castingSeconds = 0.0;    // of which casting rays (sampling, root finding, edge types);
                                     // for a refinement only the new rays', merged into the contours
     double tilingSeconds = 0.0;     // of which the tiler's: trees and traversal, or the DP / greedy
+    double qualitySeconds = 0.0;    // of which the needle passes' (collapses, flips, spindles)
     std::size_t tilingBytes = 0;    // the tiler's working structures, summed over all bands
     int contours = 0;               // contours tiled
     int skippedContours = 0;        // contours of the tubes this level skips: their neighbours
