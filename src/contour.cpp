@@ -1280,6 +1280,58 @@ std::vector<int> strayingChords(const Contour& contour, const LoopView& view, do
     });
 }
 
+std::vector<std::vector<int>> wallPoints(const Contour& contour, const LoopView& view, double reach, double tolerance)
+{
+    const std::size_t count = contour.crossings.size(), m = view.polygon.size();
+    std::vector<std::vector<int>> kept(count);
+    std::vector<glm::dvec2> walk;
+    std::vector<int> index;
+    std::vector<bool> keep;
+    for (std::size_t k = 0; k < count; ++k) {
+        const Crossing& a = contour.crossings[k];
+        const Crossing& b = contour.crossings[(k + 1) % count];
+        if (a.segment == b.segment) continue; // no polygon point between them
+        walk.assign(1, a.point);
+        index.assign(1, -1);
+        for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
+            walk.push_back(view.polygon[i]);
+            index.push_back(static_cast<int>(i));
+            if (i == static_cast<std::size_t>(b.segment)) break;
+        }
+        walk.push_back(b.point);
+        index.push_back(-1);
+        keep.assign(walk.size(), false);
+        // Douglas-Peucker on the walk's points between its two ends, where the edge strays past
+        // `reach`.
+        std::vector<std::pair<std::size_t, std::size_t>> spans{{0, walk.size() - 1}};
+        while (!spans.empty()) {
+            const auto [lo, hi] = spans.back();
+            spans.pop_back();
+            const glm::dvec2 chord = walk[hi] - walk[lo];
+            const double chord2 = glm::dot(chord, chord);
+            const double bound = lo == 0 && hi + 1 == walk.size() ? reach : tolerance;
+            double farthest2 = bound * bound;
+            std::size_t at = 0;
+            for (std::size_t i = lo + 1; i < hi; ++i) {
+                const double s =
+                    chord2 > 0.0 ? std::clamp(glm::dot(walk[i] - walk[lo], chord) / chord2, 0.0, 1.0) : 0.0;
+                const glm::dvec2 off = walk[i] - (walk[lo] + s * chord);
+                if (glm::dot(off, off) > farthest2) {
+                    farthest2 = glm::dot(off, off);
+                    at = i;
+                }
+            }
+            if (at == 0) continue;
+            keep[at] = true;
+            spans.push_back({lo, at});
+            spans.push_back({at, hi});
+        }
+        for (std::size_t i = 1; i + 1 < walk.size(); ++i)
+            if (keep[i]) kept[k].push_back(index[i]);
+    }
+    return kept;
+}
+
 std::vector<int> longChords(const Contour& contour, double length)
 {
     return chordSectors(contour, [&](std::size_t, const Crossing& a, const Crossing& b) {

@@ -905,6 +905,7 @@ private:
     void castParts();
     void numberJunctionVertices();
     void placeVertices();
+    void addWallVertices();
     std::size_t memberAt(const std::pair<int, int>& loop) const;
     glm::dvec3 toWorld(const glm::dvec2& uv, int plane) const;
     Ring ringOf(std::size_t i) const;
@@ -930,6 +931,7 @@ private:
     Side sideOf(std::size_t i) const;
     static void place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip);
     void tileBands();
+    std::vector<Triangle> tileRings(std::size_t i) const;
     ContourTree treeOf(std::size_t i) const;
     void emitCap(std::size_t self, bool top);
     void emitBandsAndCaps();
@@ -970,6 +972,7 @@ private:
     std::vector<ContourString> strings;                // per member, likewise
     std::vector<std::size_t> bandBytes;                // per member
     std::vector<std::vector<Triangle>> bands;          // per member: the band to the one before it
+    std::vector<char> walled;                          // per member: it has wall vertices (addWallVertices)
 };
 
 Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& contours, int level)
@@ -1158,6 +1161,40 @@ void Reconstruction::Assembly::placeVertices()
                                                 ? mVolume.indexToWorld(vertex.index)
                                                 : toWorld(mLoops[plane][vertex.loop].loop.points[vertex.point], plane);
         }
+}
+
+// The top level's wall vertices: where an edge of a contour between a tube's ends strays more than
+// a voxel from the boundary it stands for (wallPoints), the polygon points that keep it within
+// half a voxel, as extras. Rays from the central point cannot reach such a wall (it points at the
+// centre), and the sectors' halvings stop at RaySet::kFoldDepth. No finer level is built from the
+// top level, so levels still nest. The bands beside such a contour are tiled from the rings
+// (tileBands).
+void Reconstruction::Assembly::addWallVertices()
+{
+    walled.assign(members.size(), 0);
+    if (result.level != mOptions.levels - 1 || mOptions.tiler != TilerKind::ContourTree) return;
+    // Pixels: an edge farther than the top level's bound (a voxel) from its walk gets vertices that
+    // bring it within half a voxel, as the straying chords' rays do (addFoldRays). With any edge
+    // past half a voxel, three random crops of the smoke were up to 0.1 voxel farther off and one
+    // gained a needle of aspect 142.
+    constexpr double kWallReach = 1.0, kWallTolerance = 0.5;
+    std::vector<std::vector<std::vector<int>>> points(members.size());
+    forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
+        const Member& m = members[i];
+        // Tube ends, and contours with extras of their own, are capped or joined: left as they are.
+        if (m.startsTube || m.endsTube || !extras[i].empty()) return;
+        points[i] = wallPoints(*m.contour, mLoops[m.slice][m.loop].view, kWallReach, kWallTolerance);
+    });
+    for (std::size_t i = 0; i < members.size(); ++i) {
+        const std::vector<glm::dvec2>& polygon = mLoops[members[i].slice][members[i].loop].view.polygon;
+        for (const std::vector<int>& between : points[i])
+            for (const int s : between) {
+                extras[i].push_back({s, 0.0, vertexCount++, polygon[s]});
+                mesh.vertices.push_back(toWorld(polygon[s], members[i].slice));
+                walled[i] = 1;
+                ++result.wallVertices;
+            }
+    }
 }
 
 // A contour's ring: its crossings in walk order with its extras merged in by their place on
@@ -1395,6 +1432,11 @@ void Reconstruction::Assembly::tileBands()
     std::vector<char> byArea(members.size(), 0);
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         if (members[i].startsTube) return;
+        if (walled[i - 1] || walled[i]) {
+            bands[i] = tileRings(i);
+            byArea[i] = 1;
+            return;
+        }
         bool area = false;
         bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i], area);
         byArea[i] = area ? 1 : 0;
@@ -1404,6 +1446,25 @@ void Reconstruction::Assembly::tileBands()
     });
     for (std::size_t bytes : bandBytes) result.tilingBytes += bytes;
     result.areaBands = static_cast<int>(std::count(byArea.begin(), byArea.end(), 1));
+}
+
+// The band to member i from the one before it over their rings, wall vertices and all, by the
+// least-area tiler: the contour trees pair crossings alone.
+std::vector<Triangle> Reconstruction::Assembly::tileRings(std::size_t i) const
+{
+    const std::vector<std::uint32_t> lower = ringOf(i - 1).ids, upper = ringOf(i).ids;
+    std::vector<glm::dvec3> lowerPoints, upperPoints;
+    for (const std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
+    for (const std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
+    std::vector<Triangle> band =
+        withoutFullFans(tileLeastAreaNearest(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
+                        static_cast<std::uint32_t>(upper.size()));
+    const bool flip = members[i].tube->hole != mirrored;
+    for (Triangle& t : band) {
+        for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
+        if (flip) std::swap(t[1], t[2]);
+    }
+    return band;
 }
 
 ContourTree Reconstruction::Assembly::treeOf(std::size_t i) const
@@ -1687,6 +1748,7 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
 
 LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser)
 {
+    addWallVertices();
     const Clock::time_point tiling = Clock::now();
     buildTrees();
     tileBands();

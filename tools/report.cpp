@@ -161,6 +161,7 @@ json levelReport(const LevelMesh& level, bool topology)
         {"interpolation_fallbacks", level.interpolationFallbacks},
         {"area_junction_parts", level.areaJunctionParts},
         {"area_bands", level.areaBands},
+        {"wall_vertices", level.wallVertices},
     };
     // Triangle quality, for the meshers and renderers downstream (a linear pass).
     const TriangleQuality q = measureQuality(level.mesh);
