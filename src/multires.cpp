@@ -932,6 +932,8 @@ private:
     static void place(std::vector<Triangle>& band, const Side& lower, const Side& upper, bool flip);
     void tileBands();
     std::vector<Triangle> tileRings(std::size_t i) const;
+    std::vector<Triangle> tileByArea(const std::vector<std::uint32_t>& lower, const std::vector<std::uint32_t>& upper,
+                                     bool flip) const;
     ContourTree treeOf(std::size_t i) const;
     void emitCap(std::size_t self, bool top);
     void emitBandsAndCaps();
@@ -1452,14 +1454,20 @@ void Reconstruction::Assembly::tileBands()
 // least-area tiler: the contour trees pair crossings alone.
 std::vector<Triangle> Reconstruction::Assembly::tileRings(std::size_t i) const
 {
-    const std::vector<std::uint32_t> lower = ringOf(i - 1).ids, upper = ringOf(i).ids;
+    return tileByArea(ringOf(i - 1).ids, ringOf(i).ids, members[i].tube->hole != mirrored);
+}
+
+// The least-area surface between the closed chains of mesh vertices `lower` and `upper`, turned
+// over where `flip` says.
+std::vector<Triangle> Reconstruction::Assembly::tileByArea(const std::vector<std::uint32_t>& lower,
+                                                           const std::vector<std::uint32_t>& upper, bool flip) const
+{
     std::vector<glm::dvec3> lowerPoints, upperPoints;
     for (const std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
     for (const std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
     std::vector<Triangle> band =
         withoutFullFans(tileLeastAreaNearest(lowerPoints, upperPoints), static_cast<std::uint32_t>(lower.size()),
                         static_cast<std::uint32_t>(upper.size()));
-    const bool flip = members[i].tube->hole != mirrored;
     for (Triangle& t : band) {
         for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
         if (flip) std::swap(t[1], t[2]);
@@ -1731,17 +1739,7 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
     } else {
         ++result.areaJunctionParts;
         const std::vector<std::uint32_t> partnerRing = ringOf(partner).ids;
-        const std::vector<std::uint32_t>& lower = fork || rim ? boundary : partnerRing;
-        const std::vector<std::uint32_t>& upper = fork || rim ? partnerRing : boundary;
-        std::vector<glm::dvec3> lowerPoints, upperPoints;
-        for (std::uint32_t id : lower) lowerPoints.push_back(mesh.vertices[id]);
-        for (std::uint32_t id : upper) upperPoints.push_back(mesh.vertices[id]);
-        triangles = withoutFullFans(tileLeastAreaNearest(lowerPoints, upperPoints),
-                                    static_cast<std::uint32_t>(lower.size()), static_cast<std::uint32_t>(upper.size()));
-        for (Triangle& t : triangles) {
-            for (std::uint32_t& v : t) v = v < lower.size() ? lower[v] : upper[v - lower.size()];
-            if (flip) std::swap(t[1], t[2]);
-        }
+        triangles = fork || rim ? tileByArea(boundary, partnerRing, flip) : tileByArea(partnerRing, boundary, flip);
     }
     mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
 }
