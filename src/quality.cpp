@@ -783,6 +783,299 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
     return inflated;
 }
 
+namespace {
+
+// A hole's triangles: how many of them face against the part of the fan they cover, then the
+// largest aspect ratio among them, then the sum of their aspect ratios.
+struct HoleTiling {
+    int against = std::numeric_limits<int>::max();
+    double worst = std::numeric_limits<double>::infinity();
+    double sum = std::numeric_limits<double>::infinity();
+    bool operator<(const HoleTiling& o) const
+    {
+        return against != o.against ? against < o.against : worst != o.worst ? worst < o.worst : sum < o.sum;
+    }
+};
+
+// Fills the polygon `ring` (the link of the vertices that go, in the order their triangles run)
+// with the triangles that face against the fan they cover least often (`wedge`: the normals of
+// the fan's triangles between ring[a] and ring[a + 1], summed), then with the smallest largest
+// aspect ratio, then the smallest sum: Klincsek's dynamic programme over sub-polygons, O(n^3). A
+// diagonal the mesh already has (`joined`) would make an edge of four triangles, so none is made.
+// Each ring edge ends up in one triangle that runs it the same way, so the mesh stays closed,
+// manifold and oriented. Empty where no such tiling exists.
+std::vector<Triangle> tileHole(const std::vector<glm::dvec3>& p, const std::vector<std::uint32_t>& ring,
+                               const std::vector<glm::dvec3>& wedge, const std::vector<std::vector<bool>>& joined,
+                               double& worst)
+{
+    const std::size_t n = ring.size();
+    std::vector<glm::dvec3> facing(n + 1, glm::dvec3(0.0)); // prefix sums of the wedges
+    for (std::size_t a = 0; a < n; ++a) facing[a + 1] = facing[a] + wedge[a];
+    std::vector<HoleTiling> best(n * n);
+    std::vector<std::size_t> split(n * n, 0);
+    for (std::size_t i = 0; i + 1 < n; ++i) best[i * n + i + 1] = {0, 0.0, 0.0};
+    for (std::size_t span = 2; span < n; ++span)
+        for (std::size_t i = 0; i + span < n; ++i) {
+            const std::size_t j = i + span;
+            if (span < n - 1 && joined[i][j]) continue; // the diagonal i-j exists: no tiling under it
+            const glm::dvec3 &a = p[ring[i]], &c = p[ring[j]];
+            for (std::size_t k = i + 1; k < j; ++k) {
+                const HoleTiling &left = best[i * n + k], &right = best[k * n + j];
+                if (!std::isfinite(left.worst) || !std::isfinite(right.worst)) continue;
+                const glm::dvec3& b = p[ring[k]];
+                const double aspect = aspectRatio(a, b, c);
+                const bool against = !(glm::dot(glm::cross(b - a, c - a), facing[j] - facing[i]) > 0.0);
+                const HoleTiling here{left.against + right.against + (against ? 1 : 0),
+                                      std::max({left.worst, right.worst, aspect}), left.sum + right.sum + aspect};
+                if (here < best[i * n + j]) {
+                    best[i * n + j] = here;
+                    split[i * n + j] = k;
+                }
+            }
+        }
+    worst = best[n - 1].worst;
+    std::vector<Triangle> triangles;
+    if (!std::isfinite(worst)) return triangles;
+    std::vector<std::pair<std::size_t, std::size_t>> open{{0, n - 1}};
+    while (!open.empty()) {
+        const auto [i, j] = open.back();
+        open.pop_back();
+        if (j - i < 2) continue;
+        const std::size_t k = split[i * n + j];
+        triangles.push_back({ring[i], ring[k], ring[j]});
+        open.push_back({i, k});
+        open.push_back({k, j});
+    }
+    return triangles;
+}
+
+// The sharpest crease among `triangles` and the triangles `outside` them that share an edge: the
+// smallest cosine of the angle between two such triangles' normals (1 where none is bent).
+double sharpestCrease(const TriangleMesh& mesh, const std::vector<Triangle>& triangles,
+                      const std::vector<Triangle>& outside)
+{
+    double cosine = 1.0;
+    const auto bend = [&](const Triangle& s, const Triangle& t) {
+        for (int k = 0; k < 3; ++k)
+            if (oppositeCorner(t, s[(k + 1) % 3], s[k]) >= 0) {
+                const glm::dvec3 m = unitOrZero(faceNormal(mesh, s)), n = unitOrZero(faceNormal(mesh, t));
+                cosine = std::min(cosine, glm::dot(m, n));
+                return;
+            }
+    };
+    for (std::size_t i = 0; i < triangles.size(); ++i) {
+        for (std::size_t j = i + 1; j < triangles.size(); ++j) bend(triangles[i], triangles[j]);
+        for (const Triangle& t : outside) bend(triangles[i], t);
+    }
+    return cosine;
+}
+
+// The farthest a point of `after`'s triangles (on a grid of a quarter of each edge) lies from
+// `before`'s, and `gone` from `after`'s: how far retriangulating a vertex's fan moves the surface.
+double holeMove(const glm::dvec3& gone, const std::vector<Corners>& before, const std::vector<Corners>& after)
+{
+    double move = fanDistance(gone, after);
+    constexpr int kSteps = 4;
+    for (const Corners& t : after)
+        for (int i = 0; i <= kSteps; ++i)
+            for (int j = 0; i + j <= kSteps; ++j)
+                move = std::max(move, fanDistance(t[0] + (t[1] - t[0]) * (double(i) / kSteps) +
+                                                      (t[2] - t[0]) * (double(j) / kSteps),
+                                                  before));
+    return move;
+}
+
+} // namespace
+
+namespace {
+
+// Removes sets of vertices and tiles the polygon around each set anew (removeNeedleCorners).
+class CornerRemover {
+public:
+    CornerRemover(TriangleMesh& mesh, const std::vector<std::uint32_t>& corners, double reach)
+        : mMesh(mesh),
+          mReach(reach),
+          mAround(mesh.vertices.size()),
+          mGone(mesh.triangles.size(), false),
+          mInto(mesh.vertices.size())
+    {
+        // The triangles around the corners and around their neighbours (a ring's diagonals are
+        // checked against its vertices' triangles); a removal only joins such vertices.
+        std::vector<bool> watched(mesh.vertices.size(), false);
+        for (const std::uint32_t v : corners) watched[v] = true;
+        for (const Triangle& t : mesh.triangles)
+            if (watched[t[0]] || watched[t[1]] || watched[t[2]])
+                for (const std::uint32_t v : t) mAround[v];
+        for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+            for (const std::uint32_t v : mesh.triangles[f]) mAround.offer(v, f);
+        for (std::uint32_t v = 0; v < mInto.size(); ++v) mInto[v] = v;
+    }
+
+    // Removes `set` where that takes a needle away: see removeNeedleCorners.
+    bool tryRemove(const std::vector<std::uint32_t>& set)
+    {
+        if (std::any_of(set.begin(), set.end(), [&](std::uint32_t v) { return mInto[v] != v; })) return false;
+        const std::vector<glm::dvec3>& p = mMesh.vertices;
+        if (!gatherRing(set)) return false;
+        double worstBefore = 0.0;
+        std::vector<Corners> before;
+        for (const std::uint32_t f : mFan) {
+            const Triangle& t = mMesh.triangles[f];
+            before.push_back({p[t[0]], p[t[1]], p[t[2]]});
+            worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        }
+        if (!(worstBefore > kLargestAspect)) return false;
+        double worst = 0.0;
+        const std::vector<Triangle> tiles = tileHole(p, mRing, mWedge, joinedOutside(set), worst);
+        if (tiles.empty() || !(worst < worstBefore) ||
+            std::any_of(tiles.begin(), tiles.end(), [&](const Triangle& t) { return outsideHas(t); }))
+            return false;
+        std::vector<Corners> after;
+        for (const Triangle& t : tiles) after.push_back({p[t[0]], p[t[1]], p[t[2]]});
+        for (const std::uint32_t v : set)
+            if (holeMove(p[v], before, after) > mReach) return false;
+        // No crease past a right angle, unless the fan had one already (a tendril's tip, whose
+        // sides meet at a knife's edge whichever way it is tiled).
+        std::vector<Triangle> old;
+        for (const std::uint32_t f : mFan) old.push_back(mMesh.triangles[f]);
+        if (sharpestCrease(mMesh, tiles, mOutside) < 0.0 && !(sharpestCrease(mMesh, old, mOutside) < 0.0)) return false;
+
+        for (const std::uint32_t f : mFan) mGone[f] = true;
+        for (const Triangle& t : tiles) {
+            const std::uint32_t f = static_cast<std::uint32_t>(mMesh.triangles.size());
+            mMesh.triangles.push_back(t);
+            mGone.push_back(false);
+            for (const std::uint32_t v : t) mAround.offer(v, f);
+        }
+        for (const std::uint32_t v : set) mInto[v] = kNoVertex;
+        return true;
+    }
+
+    // Drops the removed vertices and triangles; the others keep their order.
+    void finish() { keepVertices(mMesh, mInto, mGone); }
+
+private:
+    bool inSet(const std::vector<std::uint32_t>& set, std::uint32_t v) const
+    {
+        return std::find(set.begin(), set.end(), v) != set.end();
+    }
+
+    // The triangles holding a vertex of `set` (mFan) and the polygon around them (mRing, in the
+    // order they run; mWedge: the normal of the triangle on each of its edges). False unless they
+    // make a disk: one simple cycle, and as many triangles as a disk with `set` inside has.
+    bool gatherRing(const std::vector<std::uint32_t>& set)
+    {
+        mFan.clear();
+        mRing.clear();
+        mWedge.clear();
+        std::map<std::uint32_t, std::pair<std::uint32_t, std::uint32_t>> next; // x -> (y, triangle)
+        for (const std::uint32_t v : set)
+            for (const std::uint32_t f : mAround[v]) {
+                const Triangle& t = mMesh.triangles[f];
+                if (mGone[f] || !holds(t, v) || std::find(mFan.begin(), mFan.end(), f) != mFan.end()) continue;
+                mFan.push_back(f);
+                for (int k = 0; k < 3; ++k) {
+                    const std::uint32_t x = t[k], y = t[(k + 1) % 3];
+                    if (!inSet(set, x) && !inSet(set, y) && !next.emplace(x, std::pair{y, f}).second) return false;
+                }
+            }
+        if (next.size() + 2 * set.size() - 2 != mFan.size()) return false;
+        for (std::uint32_t x = next.begin()->first; mRing.size() < next.size();) {
+            mRing.push_back(x);
+            const auto step = next.find(x);
+            if (step == next.end()) return false;
+            mWedge.push_back(faceNormal(mMesh, mMesh.triangles[step->second.second]));
+            x = step->second.first;
+            if (x == mRing.front()) break;
+        }
+        return mRing.size() == next.size() && mRing.size() >= 3;
+    }
+
+    // Whether a triangle outside the fan has t's three corners: a ring of three whose triangle
+    // the mesh has already (a tetrahedron's vertex) would leave two triangles over one.
+    bool outsideHas(const Triangle& t)
+    {
+        for (const std::uint32_t f : mAround[t[0]])
+            if (!mGone[f] && std::find(mFan.begin(), mFan.end(), f) == mFan.end() && holds(mMesh.triangles[f], t[0]) &&
+                holds(mMesh.triangles[f], t[1]) && holds(mMesh.triangles[f], t[2]))
+                return true;
+        return false;
+    }
+
+    // Which ring vertices the mesh joins already, outside the fan; and the triangles across the
+    // ring's edges (mOutside).
+    std::vector<std::vector<bool>> joinedOutside(const std::vector<std::uint32_t>& set)
+    {
+        const std::size_t n = mRing.size();
+        std::vector<std::vector<bool>> joined(n, std::vector<bool>(n, false));
+        mOutside.clear();
+        for (std::size_t i = 0; i < n; ++i)
+            for (const std::uint32_t f : mAround[mRing[i]]) {
+                const Triangle& t = mMesh.triangles[f];
+                if (mGone[f] || !holds(t, mRing[i]) ||
+                    std::any_of(set.begin(), set.end(), [&](std::uint32_t v) { return holds(t, v); }))
+                    continue;
+                for (std::size_t j = 0; j < n; ++j) joined[i][j] = joined[i][j] || (j != i && holds(t, mRing[j]));
+                if (oppositeCorner(t, mRing[(i + 1) % n], mRing[i]) >= 0) mOutside.push_back(t);
+            }
+        return joined;
+    }
+
+    TriangleMesh& mMesh;
+    double mReach;
+    VertexFans mAround;
+    std::vector<bool> mGone;          // per triangle
+    std::vector<std::uint32_t> mInto; // per vertex: itself, or kNoVertex once removed
+    std::vector<std::uint32_t> mFan, mRing;
+    std::vector<glm::dvec3> mWedge;
+    std::vector<Triangle> mOutside;
+};
+
+} // namespace
+
+long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach)
+{
+    const std::vector<glm::dvec3>& p = mesh.vertices;
+    // Most meshes have no needle, and then nothing else is done.
+    std::vector<Triangle> needles;
+    for (const Triangle& t : mesh.triangles)
+        if (aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > kLargestAspect) needles.push_back(t);
+    if (needles.empty()) return 0;
+    std::vector<glm::dvec3> kept = coarser;
+    std::sort(kept.begin(), kept.end(), before);
+    const auto inCoarser = [&](const glm::dvec3& q) { return std::binary_search(kept.begin(), kept.end(), q, before); };
+    const auto first = [&](std::uint32_t x, std::uint32_t y) { return before(p[x], p[y]) || (p[x] == p[y] && x < y); };
+    // Each needle's corners the coarser level lacks, one at a time, then together (three points
+    // a thousandth of a voxel apart at a voxel's corner, where neither alone lowers the worst); by
+    // position, so that the same go whichever way the level was built.
+    std::vector<std::vector<std::uint32_t>> singles, sets;
+    for (const Triangle& t : needles) {
+        std::vector<std::uint32_t> set;
+        for (const std::uint32_t v : t)
+            if (!inCoarser(p[v])) set.push_back(v);
+        std::sort(set.begin(), set.end(), first);
+        for (const std::uint32_t v : set) singles.push_back({v});
+        if (set.size() > 1) sets.push_back(set);
+    }
+    if (singles.empty()) return 0;
+    const auto order = [&](const std::vector<std::uint32_t>& x, const std::vector<std::uint32_t>& y) {
+        return std::lexicographical_compare(x.begin(), x.end(), y.begin(), y.end(), first);
+    };
+    for (std::vector<std::vector<std::uint32_t>>* list : {&singles, &sets}) {
+        std::sort(list->begin(), list->end(), order);
+        list->erase(std::unique(list->begin(), list->end()), list->end());
+    }
+    singles.insert(singles.end(), sets.begin(), sets.end());
+    std::vector<std::uint32_t> corners;
+    for (const std::vector<std::uint32_t>& set : singles) corners.insert(corners.end(), set.begin(), set.end());
+    CornerRemover remover(mesh, corners, reach);
+    long long removed = 0;
+    for (const std::vector<std::uint32_t>& set : singles)
+        if (remover.tryRemove(set)) removed += static_cast<long long>(set.size());
+    if (removed > 0) remover.finish();
+    return removed;
+}
+
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis)
 {
     return NeedleFlipper(mesh, volume, axis).run();

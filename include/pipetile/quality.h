@@ -103,6 +103,18 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
 /// @return the number of pillows rebuilt.
 long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::vector<glm::dvec3>& coarser);
 
+/// Removes the needles' corners that no collapse or flip could take: a tendril's tip thinner than
+/// a tenth of a voxel, where three contour points nearly in line, or a ring of three, are fanned to
+/// a tip (the smoke at iso 0.1 along y). Each corner of a triangle past kLargestAspect that the
+/// coarser level lacks (`coarser`, as collapseNeedleEdges takes it) goes, and its fan's polygon is
+/// tiled anew with the smallest largest aspect ratio, with no edge the mesh has already and no
+/// triangle facing against the fan it covers. It is made where that lowers the fan's worst aspect
+/// ratio and moves the surface by no more than `reach` (world units). The mesh stays closed,
+/// manifold and oriented, with the same components and Euler characteristic, and levels still
+/// nest; vertices keep their order. Deterministic: corners go in order of position.
+/// @return the number of corners removed.
+long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach);
+
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
 /// few voxels far above. Every such edge of a triangle over kShortEdgeAspect, or of a speck (all
