@@ -794,6 +794,29 @@ TEST(Graph, WallsThatPointAtTheCentralPointGetVertices)
     }
 }
 
+// The hollow Y sliced along y: its channel (radius 6 around y = 32) has its tangent planes on the
+// voxel grid, at y = 26 and 38, where the voxels along the channel's ridge hold the isovalue
+// itself. volumeToMesh takes them for outside: slits and pinholes of no area in the wall, which no
+// contour keeps but the cells count. So the merge at y = 38 (the wall's three pieces beside the
+// channel close over it) could not take its cells, and its junction fanned across the crotch,
+// 2.86 voxels off (795 in aspect at levels 2 and 3). Such a voxel with no outside neighbour in
+// its plane is now inside: the merge and the fork take their cells, and the top level is 0.82
+// voxel off.
+TEST(Graph, AChannelsTangentPlaneOnTheVoxelGridIsPatched)
+{
+    const Volume& volume = test::cachedSample("hollow-y");
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Y);
+    EXPECT_EQ(reconstruction.stats().eventEuler, -2);
+    EXPECT_EQ(reconstruction.stats().junctionPatches, 2);
+    const TriangleMesh top = expectNestedLevels(reconstruction, [&](const TriangleMesh& mesh) {
+        const Topology t = checkTopology(mesh);
+        EXPECT_TRUE(t.closed() && t.manifold() && t.oriented() && t.outward());
+        EXPECT_EQ(t.euler, -2);
+        EXPECT_EQ(t.components, 1);
+    });
+    expectOnTheIsosurface(volume, top, 1.0);
+}
+
 TEST(Graph, TheSmokesTopLevelIsWithinAVoxel)
 {
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"));
