@@ -885,10 +885,6 @@ double holeMove(const glm::dvec3& gone, const std::vector<Corners>& before, cons
     return move;
 }
 
-} // namespace
-
-namespace {
-
 // Removes sets of vertices and tiles the polygon around each set anew (removeNeedleCorners).
 class CornerRemover {
 public:

@@ -103,15 +103,18 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
 /// @return the number of pillows rebuilt.
 long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::vector<glm::dvec3>& coarser);
 
-/// Removes the needles' corners that no collapse or flip could take: a tendril's tip thinner than
-/// a tenth of a voxel, where three contour points nearly in line, or a ring of three, are fanned to
-/// a tip (the smoke at iso 0.1 along y). Each corner of a triangle past kLargestAspect that the
-/// coarser level lacks (`coarser`, as collapseNeedleEdges takes it) goes, and its fan's polygon is
-/// tiled anew with the smallest largest aspect ratio, with no edge the mesh has already and no
-/// triangle facing against the fan it covers. It is made where that lowers the fan's worst aspect
-/// ratio and moves the surface by no more than `reach` (world units). The mesh stays closed,
-/// manifold and oriented, with the same components and Euler characteristic, and levels still
-/// nest; vertices keep their order. Deterministic: corners go in order of position.
+/// Removes the needles' corners that no collapse or flip could take: a tendril's tip or neck
+/// thinner than a tenth of a voxel, where a ring of three points with one short edge is fanned to
+/// a tip (a collapse would pinch the surface), or three points a thousandth of a voxel apart at a
+/// voxel's corner (the smoke at iso 0.1 along y). The corners of a triangle past kLargestAspect
+/// that the coarser level lacks (`coarser`, as collapseNeedleEdges takes it) go, one at a time and
+/// then all of one needle's together, and the polygon around them is tiled anew: the tiling with
+/// the fewest triangles facing against the part of the fan they cover, then the smallest largest
+/// aspect ratio, with no edge or triangle the mesh has already. It is made where that lowers the
+/// fan's worst aspect ratio, moves the surface by no more than `reach` (world units), and makes no
+/// crease past a right angle where the fan had none. The mesh stays closed, manifold and oriented,
+/// with the same components and Euler characteristic, and levels still nest; vertices keep their
+/// order. Deterministic: corners go in order of position.
 /// @return the number of corners removed.
 long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach);
 
