@@ -846,6 +846,38 @@ TEST(Graph, TheSmokeAtItsReadmeIsovalueIsWithinAVoxel)
     EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
 }
 
+// Known gaps of issue 13 (README), strict and registered with ctest as expected failures
+// (CMakeLists.txt): when one passes, ctest says so, and it joins the suite.
+
+// The top level within a voxel: the phantom, a plain tube, sliced along y (across its length, its
+// sections strips hundreds of pixels long) is 1.52 voxels off, on a band between two planes that
+// its second build added, which no build asks whether it strays (asking each build in turn until
+// nothing new strayed took four builds and left it 1.28 off).
+TEST(KnownGap, ThePhantomSlicedAlongYIsWithinAVoxel)
+{
+    const Volume& volume = test::cachedSample("phantom");
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Y);
+    expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
+}
+
+// The top level within a voxel on the shared real data: the smoke at iso 0.1 (data/README's value)
+// along z is 1.53 voxels off, along x 1.01 (along y, its default axis, 0.99:
+// TheSmokeAtItsReadmeIsovalueIsWithinAVoxel). Not traced this session; crops of the smoke that
+// stray lie in slabs an eighth of a voxel to a voxel thick (README).
+TEST(KnownGap, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongXAndZ)
+{
+    VolumeOptions read;
+    read.iso = 0.1;
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"), read);
+    for (const Axis axis : {Axis::X, Axis::Z}) {
+        SCOPED_TRACE(axis == Axis::X ? "along x" : "along z");
+        const Reconstruction reconstruction = slicedAlong(volume, axis);
+        const Validation v =
+            Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+        EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    }
+}
+
 namespace {
 
 // The top level of `volume`'s mesh along `axis` is closed, manifold and oriented, and encloses the

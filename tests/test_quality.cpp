@@ -670,3 +670,32 @@ TEST(Quality, ACornerCollapseMovesTheSurfaceNoFartherThanItsReach)
     const Validation v = Validator(volume).validate(reconstruction.buildLevel(1).mesh);
     EXPECT_LE(v.symmetric.max, (0.83 + 4 * kNeedleReachVoxels) * v.voxel);
 }
+
+// Known gaps of issue 17 (README, triangle quality), strict and registered with ctest as expected
+// failures (CMakeLists.txt): when one passes, ctest says so, and it joins the suite above.
+
+// No needle over 100 on the tests' phantoms: the hollow Y sliced along x (Graph's wall vertices
+// test) keeps 111 at level 1, on three contour points nearly in line that level 0 has, so no
+// collapse or corner removal may take them; sliced along y (Graph's channel test), 121 at levels
+// 2 and 3, three patch vertices nearly in line in a slice plane under a long band triangle, which
+// no flip lowers.
+TEST(KnownGap, TheHollowYSlicedAcrossItsLengthHasNoNeedles)
+{
+    for (const Axis axis : {Axis::X, Axis::Y}) {
+        SCOPED_TRACE(axis == Axis::X ? "along x" : "along y");
+        MeshOptions options;
+        options.slicing.axis = axis;
+        expectEveryLevel(test::cachedSample("hollow-y"), options, expectNoNeedlesIn);
+    }
+}
+
+// No needle over 100 on the shared real data: the smoke at iso 0.1 (data/README's value) along x
+// keeps 167, 167, 204 and 190 at levels 0 to 3, along z 109 and 212 at levels 2 and 3 (along y,
+// its default axis, none: NoNeedlesOnTheSmokeAtTheIsovalueItsReadmeGives). Their corners cannot
+// go: the coarser level has them, or no tiling of the hole is better, or it moves the surface
+// farther than the reach.
+TEST(KnownGap, TheSmokeAtItsReadmeIsovalueHasNoNeedlesAlongXAndZ)
+{
+    expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb", true, Axis::X, 0.1);
+    expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb", true, Axis::Z, 0.1);
+}
