@@ -265,6 +265,33 @@ bool before(const glm::dvec3& a, const glm::dvec3& b)
     return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
 }
 
+// The coarser level's vertices, by position (levels nest by position): how many copies of a
+// point it has. Two constructions can put a vertex on another bit for bit (a junction part's
+// crossing on the single contour's), and each copy that level has must stay. Sorted on the first
+// question: most meshes ask none.
+class CoarserVertices {
+public:
+    explicit CoarserVertices(const std::vector<glm::dvec3>& coarser) : mCoarser(&coarser) {}
+
+    std::ptrdiff_t copies(const glm::dvec3& q)
+    {
+        if (!mSorted) {
+            mKept = *mCoarser;
+            std::sort(mKept.begin(), mKept.end(), before);
+            mSorted = true;
+        }
+        const auto [from, to] = std::equal_range(mKept.begin(), mKept.end(), q, before);
+        return to - from;
+    }
+
+    bool has(const glm::dvec3& q) { return copies(q) > 0; }
+
+private:
+    const std::vector<glm::dvec3>* mCoarser;
+    std::vector<glm::dvec3> mKept;
+    bool mSorted = false;
+};
+
 // What a collapse must do besides keeping a closed manifold so and turning no triangle over.
 struct Guard {
     bool lowerWorst = false; // lower the largest aspect ratio of the triangles around the vertex that goes
@@ -626,20 +653,8 @@ bool ThinSlabPlanes::holdBoth(const glm::dvec3& a, const glm::dvec3& b) const
 long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::vector<glm::dvec3>& coarser,
                               const NeedleCollapse& how)
 {
-    // How many copies of a point the coarser level has: two constructions can put a vertex on
-    // another bit for bit (a junction part's crossing on the single contour's), and each copy
-    // that level has must stay. Sorted on the first edge that may go: most meshes have none.
-    std::vector<glm::dvec3> kept;
-    bool sorted = false;
-    const auto copies = [&](const glm::dvec3& q) {
-        if (!sorted) {
-            kept = coarser;
-            std::sort(kept.begin(), kept.end(), before);
-            sorted = true;
-        }
-        const auto [from, to] = std::equal_range(kept.begin(), kept.end(), q, before);
-        return to - from;
-    };
+    CoarserVertices kept(coarser);
+    const auto copies = [&](const glm::dvec3& q) { return kept.copies(q); };
     const double tolerance2 = tolerance * tolerance;
     long long collapsed = 0;
     // A collapse can make a new short edge (between two vertices that each kept a third between
@@ -744,9 +759,8 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
         byCorners[corners].push_back(f);
     }
     if (byCorners.empty()) return 0;
-    std::vector<glm::dvec3> kept = coarser;
-    std::sort(kept.begin(), kept.end(), before);
-    const auto inCoarser = [&](const glm::dvec3& q) { return std::binary_search(kept.begin(), kept.end(), q, before); };
+    CoarserVertices kept(coarser);
+    const auto inCoarser = [&](const glm::dvec3& q) { return kept.has(q); };
 
     std::vector<glm::dvec3>& p = mesh.vertices;
     std::vector<bool> dropped(p.size(), false);
@@ -1037,9 +1051,8 @@ long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>&
     for (const Triangle& t : mesh.triangles)
         if (aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > kLargestAspect) needles.push_back(t);
     if (needles.empty()) return 0;
-    std::vector<glm::dvec3> kept = coarser;
-    std::sort(kept.begin(), kept.end(), before);
-    const auto inCoarser = [&](const glm::dvec3& q) { return std::binary_search(kept.begin(), kept.end(), q, before); };
+    CoarserVertices kept(coarser);
+    const auto inCoarser = [&](const glm::dvec3& q) { return kept.has(q); };
     const auto first = [&](std::uint32_t x, std::uint32_t y) { return before(p[x], p[y]) || (p[x] == p[y] && x < y); };
     // Each needle's corners the coarser level lacks, one at a time, then together (three points
     // a thousandth of a voxel apart at a voxel's corner, where neither alone lowers the worst); by
