@@ -1442,6 +1442,15 @@ void Reconstruction::Assembly::tileBands()
         bool area = false;
         bands[i] = tileSides(sideOf(i - 1), sideOf(i), bandBytes[i], area);
         byArea[i] = area ? 1 : 0;
+        // A band the trees pair out of register goes to the area tiler. Where either contour has
+        // extras (a patch's or a junction's vertices on its polygon), that tiler sees them too:
+        // split in afterwards, they fan to the far corners of a long quad (the phantom sliced along
+        // y: two contours a voxel apart, each with a patch's extras along a 36-pixel edge, fanned
+        // across the quad's diagonal 1.53 voxels off the surface; 1.11 tiled with them).
+        if (area && (!extras[i - 1].empty() || !extras[i].empty())) {
+            bands[i] = tileRings(i);
+            return;
+        }
         place(bands[i], sideOf(i - 1), sideOf(i), members[i].tube->hole != mirrored);
         splitForExtras(bands[i], i - 1);
         splitForExtras(bands[i], i);
