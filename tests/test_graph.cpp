@@ -846,13 +846,28 @@ TEST(Graph, TheSmokeAtItsReadmeIsovalueIsWithinAVoxel)
     EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
 }
 
+// The same along z, where the slices lie 2 voxels apart: a cup at the bottom, whose cavity meets
+// the outside at one saddle of the cells only, ended as a rim (a wall and its hole together), its
+// annulus flat at the cavity's mouth 1.53 voxels above the cup's bottom. A rim's slab is halved
+// to a voxel, and the voxel plane shows the cup's bottom (0.86).
+TEST(Graph, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongZ)
+{
+    VolumeOptions read;
+    read.iso = 0.1;
+    const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"), read);
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::Z);
+    const Validation v = Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+}
+
 // Known gaps of issue 13 (README), strict and registered with ctest as expected failures
 // (CMakeLists.txt): when one passes, ctest says so, and it joins the suite.
 
 // The top level within a voxel: the phantom, a plain tube, sliced along y (across its length, its
-// sections strips hundreds of pixels long) is 1.52 voxels off, on a band between two planes that
-// its second build added, which no build asks whether it strays (asking each build in turn until
-// nothing new strayed took four builds and left it 1.28 off).
+// sections strips hundreds of pixels long) is 1.11 voxels off, where the tube's top lies nearly
+// in the slicing plane: bands between planes an eighth of a voxel apart, whose contours' walls
+// lie 28 pixels along the walk between vertices. (It was 1.52 where a patch's extras fanned across
+// a band's quad, until the area tiler took them: multires.cpp, tileBands.)
 TEST(KnownGap, ThePhantomSlicedAlongYIsWithinAVoxel)
 {
     const Volume& volume = test::cachedSample("phantom");
@@ -861,21 +876,17 @@ TEST(KnownGap, ThePhantomSlicedAlongYIsWithinAVoxel)
 }
 
 // The top level within a voxel on the shared real data: the smoke at iso 0.1 (data/README's value)
-// along z is 1.53 voxels off, along x 1.01 (along y, its default axis, 0.99:
-// TheSmokeAtItsReadmeIsovalueIsWithinAVoxel). Not traced this session; crops of the smoke that
-// stray lie in slabs an eighth of a voxel to a voxel thick (README).
-TEST(KnownGap, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongXAndZ)
+// along x is 1.01 voxels off (along y, its default axis, 0.99: TheSmokeAtItsReadmeIsovalueIsWithinAVoxel;
+// along z 0.86). Not traced; crops of the smoke that stray lie in slabs an eighth of a voxel to a
+// voxel thick (README).
+TEST(KnownGap, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongX)
 {
     VolumeOptions read;
     read.iso = 0.1;
     const Volume volume = readVolume(test::realData("gaffer_smoke_fog.vdb"), read);
-    for (const Axis axis : {Axis::X, Axis::Z}) {
-        SCOPED_TRACE(axis == Axis::X ? "along x" : "along z");
-        const Reconstruction reconstruction = slicedAlong(volume, axis);
-        const Validation v =
-            Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
-        EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
-    }
+    const Reconstruction reconstruction = slicedAlong(volume, Axis::X);
+    const Validation v = Validator(volume).validate(reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
 }
 
 namespace {
