@@ -417,8 +417,10 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // degrees of turn in one step, was 1.07 voxels off), or would fan a part of the last contour
     // more than 3 pixels from the end contour across a gap of it wider than that (a U-shaped
     // contour at a crop's face whose end contour keeps one arm: in register on average, 2.25
-    // pixels, but the other arm fanned across 14 pixels of air, 4.05 voxels off). Still out of
-    // register there, the end contour is another shape than the last contour's, and no end of
+    // pixels, but the other arm fanned across 14 pixels of air, 4.05 voxels off), or a part of
+    // the end contour across such a gap of it toward the last contour (the smoke at iso 0.1 along
+    // x: a lobe of the end contour, which the last contour lacks, fanned to one point of it 5
+    // voxels away, 1.01 voxels off; 0.92 now). Still out of register there, the end contour is another shape than the last contour's, and no end of
     // it: the last contour is capped instead (a crop of the smoke: an arm of a contour of 235
     // pixels ends within a quarter voxel, and the band to an end contour of 56 fanned the arm's
     // crossings across air to one point, 2.30 voxels off; capped at the contour, 0.76).
@@ -435,7 +437,8 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     const std::pair<int, int> onGraph = tube.members[graphEnd(tube, top)];
     const auto outOfRegister = [&](const SliceLoop& end) {
         return misregistration(member.view, member.profile, end.view, end.profile) > kOutOfRegister ||
-               widestGapToward(member.view, end.view, kOutOfRegister) > kOutOfRegister;
+               widestGapToward(member.view, end.view, kOutOfRegister) > kOutOfRegister ||
+               widestGapToward(end.view, member.view, kOutOfRegister) > kOutOfRegister;
     };
     std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph);
     bool apart = endLoop && outOfRegister(*endLoop);

@@ -866,6 +866,14 @@ TEST(Graph, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongZ)
     EXPECT_LE(smokeAtItsReadmeIsovalueOff(Axis::Z), 1.0);
 }
 
+// And along x, where an end contour had a lobe that the tube's last contour lacks: its band fanned
+// the lobe to one point of the last contour 5 voxels away, 1.01 voxels off. An end contour is out
+// of register where a part of either contour fans across a gap of it toward the other (0.92).
+TEST(Graph, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongX)
+{
+    EXPECT_LE(smokeAtItsReadmeIsovalueOff(Axis::X), 1.0);
+}
+
 // Known gaps of issue 13 (README), strict and registered with ctest as expected failures
 // (CMakeLists.txt): when one passes, ctest says so, and it joins the suite.
 
@@ -879,15 +887,6 @@ TEST(KnownGap, ThePhantomSlicedAlongYIsWithinAVoxel)
     const Volume& volume = test::cachedSample("phantom");
     const Reconstruction reconstruction = slicedAlong(volume, Axis::Y);
     expectOnTheIsosurface(volume, reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh, 1.0);
-}
-
-// The top level within a voxel on the shared real data: the smoke at iso 0.1 (data/README's value)
-// along x is 1.01 voxels off (along y, its default axis, 0.99: TheSmokeAtItsReadmeIsovalueIsWithinAVoxel;
-// along z 0.86). Not traced; crops of the smoke that stray lie in slabs an eighth of a voxel to a
-// voxel thick (README).
-TEST(KnownGap, TheSmokeAtItsReadmeIsovalueIsWithinAVoxelAlongX)
-{
-    EXPECT_LE(smokeAtItsReadmeIsovalueOff(Axis::X), 1.0);
 }
 
 namespace {
