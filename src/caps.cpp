@@ -420,10 +420,11 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // pixels, but the other arm fanned across 14 pixels of air, 4.05 voxels off), or a part of
     // the end contour across such a gap of it toward the last contour (the smoke at iso 0.1 along
     // x: a lobe of the end contour, which the last contour lacks, fanned to one point of it 5
-    // voxels away, 1.01 voxels off; 0.92 now). Still out of register there, the end contour is another shape than the last contour's, and no end of
-    // it: the last contour is capped instead (a crop of the smoke: an arm of a contour of 235
-    // pixels ends within a quarter voxel, and the band to an end contour of 56 fanned the arm's
-    // crossings across air to one point, 2.30 voxels off; capped at the contour, 0.76).
+    // voxels away, 1.01 voxels off; 0.92 now). Still out of register there, the end contour is
+    // another shape than the last contour's, and no end of it: the last contour is capped
+    // instead (a crop of the smoke: an arm of a contour of 235 pixels ends within a quarter voxel,
+    // and the band to an end contour of 56 fanned the arm's crossings across air to one point,
+    // 2.30 voxels off; capped at the contour, 0.76).
     double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
     // From a voxel plane, the first end contour goes no farther than the next voxel plane, which
     // the end's band would otherwise pass by: a crop of the smoke starts a tube at y = 100 whose

@@ -831,11 +831,6 @@ TEST(Graph, TheSmokesTopLevelIsWithinAVoxel)
     }
 }
 
-// The whole smoke at iso 0.1, the value data/README.md gives it (its plume as one blob full of
-// channels): its top level lies within a voxel of the isosurface (0.93). It was 2.23 voxels off
-// where a band fanned across air (ABandWhoseSlabCouldNotBeHalvedTakesItsCells), 1.53 where an
-// end missed a spike one pixel wide (AnEndsSpikeOnePixelWideIsReached), and 1.02 where a band's
-// middle plane showed more than a band (ABandWhoseMiddlePlaneIsNoBandTakesItsCells).
 namespace {
 
 // Voxels between the smoke's isosurface at iso 0.1 (data/README's value) and its top level, sliced
@@ -852,6 +847,11 @@ double smokeAtItsReadmeIsovalueOff(Axis axis)
 
 } // namespace
 
+// The whole smoke at iso 0.1, the value data/README.md gives it (its plume as one blob full of
+// channels): its top level lies within a voxel of the isosurface (0.93). It was 2.23 voxels off
+// where a band fanned across air (ABandWhoseSlabCouldNotBeHalvedTakesItsCells), 1.53 where an
+// end missed a spike one pixel wide (AnEndsSpikeOnePixelWideIsReached), and 1.02 where a band's
+// middle plane showed more than a band (ABandWhoseMiddlePlaneIsNoBandTakesItsCells).
 TEST(Graph, TheSmokeAtItsReadmeIsovalueIsWithinAVoxel)
 {
     EXPECT_LE(smokeAtItsReadmeIsovalueOff(Axis::Auto), 1.0);
