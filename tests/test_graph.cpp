@@ -2126,15 +2126,18 @@ TEST(Graph, RingTreeElevenIsWithinAVoxelAtTheTopLevel)
 
 namespace {
 
-// Sliced along x, the largest aspect ratio of each level of a reconstruction of `volume`.
+// Sliced along x, the largest aspect ratio of each level of a reconstruction of `volume`; infinite
+// where a triangle has no area (measureQuality counts those apart).
 std::vector<double> largestAspectsAlongX(const Volume& volume)
 {
     MeshOptions options;
     options.slicing.axis = Axis::X;
     const Reconstruction reconstruction(volume, options);
     std::vector<double> aspects;
-    for (int level = 0; level < reconstruction.levelCount(); ++level)
-        aspects.push_back(measureQuality(reconstruction.buildLevel(level).mesh).largestAspect);
+    for (int level = 0; level < reconstruction.levelCount(); ++level) {
+        const TriangleQuality quality = measureQuality(reconstruction.buildLevel(level).mesh);
+        aspects.push_back(quality.degenerate > 0 ? std::numeric_limits<double>::infinity() : quality.largestAspect);
+    }
     return aspects;
 }
 
