@@ -20,6 +20,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -907,6 +908,8 @@ private:
     void placeVertices();
     void addWallVertices();
     std::size_t memberAt(const std::pair<int, int>& loop) const;
+    // The vertex of the crossing that lies at point `point` of `loop`, if one does.
+    std::optional<std::uint32_t> crossingAtPoint(const std::pair<int, int>& loop, int point) const;
     glm::dvec3 toWorld(const glm::dvec2& uv, int plane) const;
     Ring ringOf(std::size_t i) const;
     void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
@@ -1091,15 +1094,37 @@ void Reconstruction::Assembly::numberJunctionVertices()
                 continue;
             }
             const std::pair<int, int> loop{vertex.plane == 0 ? mPatches[p].below : mPatches[p].above, vertex.loop};
-            const auto [at, added] = onLoop.insert({{loop.first, loop.second, vertex.point}, vertexCount});
+            // A ray along a pixel row or column meets the loop at its point: the patch takes that
+            // crossing, which a vertex of its own would join by an edge of no length.
+            const std::optional<std::uint32_t> crossing = crossingAtPoint(loop, vertex.point);
+            const auto [at, added] =
+                onLoop.insert({{loop.first, loop.second, vertex.point}, crossing ? *crossing : vertexCount});
             patchIds[p].push_back(at->second);
-            if (!added) continue;
+            if (!added || crossing) continue;
             const BoundaryLoop& boundary = mLoops[loop.first][loop.second].loop;
             const int n = static_cast<int>(boundary.points.size());
             const int segment = boundary.hole() ? n - 1 - vertex.point : vertex.point;
             extras[memberAt(loop)].push_back({segment, 0.0, vertexCount++, boundary.points[vertex.point]});
         }
     }
+}
+
+std::optional<std::uint32_t> Reconstruction::Assembly::crossingAtPoint(const std::pair<int, int>& loop, int point) const
+{
+    // Crossings are placed to about 1e-12 pixel.
+    constexpr double kSamePoint = 1e-9;
+    const auto same = [](const glm::dvec2& a, const glm::dvec2& b) { return glm::length(a - b) <= kSamePoint; };
+    const std::vector<glm::dvec2>& points = mLoops[loop.first][loop.second].loop.points;
+    const std::size_t n = points.size(), k = static_cast<std::size_t>(point);
+    const glm::dvec2 at = points[k];
+    // A point the polygon holds twice (a sample on the isovalue) keeps its copies: which of them a
+    // crossing stands for, the ring's order could not tell.
+    if (same(points[(k + 1) % n], at) || same(points[(k + n - 1) % n], at)) return std::nullopt;
+    const Member& m = members[memberAt(loop)];
+    const std::vector<Crossing>& x = m.contour->crossings;
+    for (std::size_t c = 0; c < x.size(); ++c)
+        if (same(x[c].point, at)) return m.first + static_cast<std::uint32_t>(c);
+    return std::nullopt;
 }
 
 std::size_t Reconstruction::Assembly::memberAt(const std::pair<int, int>& loop) const

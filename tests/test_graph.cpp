@@ -2171,6 +2171,15 @@ TEST(Graph, ACollapsesShortestEdgesGoFirst)
     expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({50, 76, 80}, {91, 115, 105}, 0.2)));
 }
 
+// A random crop of the smoke at iso 0.2 (seed 110, crop 6), sliced along x. A ray along a pixel row
+// met a loop at one of its polygon's points, and the patch of the slab beside it had its own vertex
+// there: an edge of no length, and from level 1 on two triangles of no area that no collapse could
+// take. The patch now takes the crossing (Assembly::crossingAtPoint).
+TEST(Graph, APatchTakesTheCrossingAtItsPoint)
+{
+    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 34, 25}, {106, 82, 66}, 0.2)));
+}
+
 // Crossing tree 1 sliced along x: at level 2 a vertex of a plane beside one of the events' slabs,
 // an eighth of a voxel thick, lay 0.24 voxel from another of that plane, and both were vertices of
 // level 0, so no collapse of a finer level could take either: their edge fanned to a point 9
