@@ -2180,6 +2180,15 @@ TEST(Graph, APatchTakesTheCrossingAtItsPoint)
     expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 34, 25}, {106, 82, 66}, 0.2)));
 }
 
+// A random crop of the smoke at iso 0.1 (seed 109, crop 11), sliced along x. A speck alone in its
+// tube had its central point 0.007 pixel from a crossing (0.1 pixel inside its polygon), and the
+// fan round its apex made needles of aspect 167 at every level. Its rays now go out from the middle
+// of its crossings (Reconstruction::centreLoneContour).
+TEST(Graph, ALoneSpecksRaysGoOutFromItsMiddle)
+{
+    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({25, 94, 51}, {54, 138, 95}, 0.1)));
+}
+
 // Crossing tree 1 sliced along x: at level 2 a vertex of a plane beside one of the events' slabs,
 // an eighth of a voxel thick, lay 0.24 voxel from another of that plane, and both were vertices of
 // level 0, so no collapse of a finer level could take either: their edge fanned to a point 9

@@ -373,6 +373,9 @@ private:
     SliceLoop& memberLoop(const Tube& tube, std::size_t k);
     // The ends' stage and its helpers, down to addRimContours: caps.cpp.
     void closeEnds();
+    /// Moves a lone contour's central point (its view's) to the middle of its finest crossings
+    /// where the one it has lies within a tenth of a pixel of one of them (closeEnds).
+    void centreLoneContour(SliceLoop& member, const SlicePlane& plane) const;
     /// How far the next plane of the graph lies past plane w (toward +w for direction 1, -w for
     /// -1): the slab that holds an end there; infinite past the last plane.
     double roomPast(double w, double direction) const;
