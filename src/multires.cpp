@@ -905,11 +905,13 @@ private:
     void collectMembers();
     void castParts();
     void numberJunctionVertices();
+    void numberPatchVertices();
     void placeVertices();
     void addWallVertices();
     std::size_t memberAt(const std::pair<int, int>& loop) const;
-    // The vertex of the crossing that lies at point `point` of `loop`, if one does.
-    std::optional<std::uint32_t> crossingAtPoint(const std::pair<int, int>& loop, int point) const;
+    // The vertex of `loop`'s ring that lies at its point `point` (a crossing, a junction's node or
+    // part's crossing), if one does.
+    std::optional<std::uint32_t> vertexAtPoint(const std::pair<int, int>& loop, int point) const;
     glm::dvec3 toWorld(const glm::dvec2& uv, int plane) const;
     Ring ringOf(std::size_t i) const;
     void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
@@ -967,17 +969,18 @@ private:
     std::vector<std::size_t> tubeFirst;     // index in `members` of each tube's first
     std::vector<std::vector<int>> memberOf; // per plane and loop; -1: not tiled
     std::uint32_t vertexCount = 0;
-    std::vector<std::vector<Contour>> parts;           // per junction, per partner
-    std::vector<std::vector<Extra>> extras;            // per member
-    std::vector<ChordVertices> onChord;                // per junction
-    std::vector<std::uint32_t> firstNodeOf;            // per junction
-    std::vector<std::vector<std::uint32_t>> partFirst; // per junction, per partner
-    std::vector<std::vector<std::uint32_t>> patchIds;  // per patch, per vertex
-    std::vector<std::unique_ptr<ContourTree>> trees;   // per member, with the contour tree tiler
-    std::vector<ContourString> strings;                // per member, likewise
-    std::vector<std::size_t> bandBytes;                // per member
-    std::vector<std::vector<Triangle>> bands;          // per member: the band to the one before it
-    std::vector<char> walled;                          // per member: it has wall vertices (addWallVertices)
+    std::vector<std::vector<Contour>> parts;                        // per junction, per partner
+    std::vector<std::vector<Extra>> extras;                         // per member
+    std::vector<ChordVertices> onChord;                             // per junction
+    std::vector<std::uint32_t> firstNodeOf;                         // per junction
+    std::vector<std::vector<std::uint32_t>> partFirst;              // per junction, per partner
+    std::vector<std::pair<std::uint32_t, glm::dvec3>> partVertices; // the parts' crossings' positions
+    std::vector<std::vector<std::uint32_t>> patchIds;               // per patch, per vertex
+    std::vector<std::unique_ptr<ContourTree>> trees;                // per member, with the contour tree tiler
+    std::vector<ContourString> strings;                             // per member, likewise
+    std::vector<std::size_t> bandBytes;                             // per member
+    std::vector<std::vector<Triangle>> bands;                       // per member: the band to the one before it
+    std::vector<char> walled; // per member: it has wall vertices (addWallVertices)
 };
 
 Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& contours, int level)
@@ -1006,6 +1009,7 @@ Reconstruction::Assembly::Assembly(const Reconstruction& r, const Contours& cont
     collectMembers();
     castParts();
     numberJunctionVertices();
+    numberPatchVertices();
     placeVertices();
 }
 
@@ -1079,7 +1083,39 @@ void Reconstruction::Assembly::numberJunctionVertices()
             partFirst[j].push_back(vertexCount);
             vertexCount += static_cast<std::uint32_t>(part.crossings.size());
         }
+        for (std::size_t k = 0; k < parts[j].size(); ++k) {
+            const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
+            const std::vector<Crossing>& x = parts[j][k].crossings;
+            for (std::size_t c = 0; c < x.size(); ++c) {
+                const std::uint32_t id = partFirst[j][k] + static_cast<std::uint32_t>(c);
+                const Junction::Part::Corner &a = corners[x[c].segment],
+                                             &b = corners[(x[c].segment + 1) % corners.size()];
+                const std::pair<int, int> loop = a.member == 1 ? junction.inner : junction.single;
+                const std::vector<glm::dvec2>& polygon = mLoops[loop.first][loop.second].view.polygon;
+                const int size = static_cast<int>(polygon.size());
+                if (a.member >= 0 && a.member == b.member &&
+                    (b.point == (a.point + 1) % size || a.point == (b.point + 1) % size)) {
+                    // On an arc: a segment of that contour's polygon.
+                    const int s = b.point == (a.point + 1) % size ? a.point : b.point;
+                    extras[memberAt(loop)].push_back(
+                        {s, placeOn(polygon[s], polygon[(s + 1) % size], x[c].point), id, x[c].point});
+                    partVertices.push_back({id, toWorld(x[c].point, loop.first)});
+                } else { // on a chord between two nodes
+                    const Chord chord{std::min(a.node, b.node), std::max(a.node, b.node)};
+                    const double t =
+                        placeOn(junction.nodePoints[chord.first], junction.nodePoints[chord.second], x[c].point);
+                    onChord[j][chord].push_back({t, id});
+                    partVertices.push_back({id, mVolume.indexToWorld(glm::mix(junction.nodeIndex[chord.first],
+                                                                              junction.nodeIndex[chord.second], t))});
+                }
+            }
+        }
     }
+}
+
+// A patch's vertices: its own inside the slab, and its points on the loops, which join their rings.
+void Reconstruction::Assembly::numberPatchVertices()
+{
     // A patch's points on a loop lie on its polygon's points (param 0 of their segment; a hole's
     // polygon runs reversed). Two patches that meet at a loop (one either side of its plane) share
     // its points: as copies, the patches' edges on the loop were split through each other's copy
@@ -1094,13 +1130,14 @@ void Reconstruction::Assembly::numberJunctionVertices()
                 continue;
             }
             const std::pair<int, int> loop{vertex.plane == 0 ? mPatches[p].below : mPatches[p].above, vertex.loop};
-            // A ray along a pixel row or column meets the loop at its point: the patch takes that
-            // crossing, which a vertex of its own would join by an edge of no length.
-            const std::optional<std::uint32_t> crossing = crossingAtPoint(loop, vertex.point);
+            // A ray along a pixel row or column meets the loop at its point, as can a junction's
+            // part: the patch takes that vertex, which one of its own would join by an edge of no
+            // length.
+            const std::optional<std::uint32_t> shared = vertexAtPoint(loop, vertex.point);
             const auto [at, added] =
-                onLoop.insert({{loop.first, loop.second, vertex.point}, crossing ? *crossing : vertexCount});
+                onLoop.insert({{loop.first, loop.second, vertex.point}, shared ? *shared : vertexCount});
             patchIds[p].push_back(at->second);
-            if (!added || crossing) continue;
+            if (!added || shared) continue;
             const BoundaryLoop& boundary = mLoops[loop.first][loop.second].loop;
             const int n = static_cast<int>(boundary.points.size());
             const int segment = boundary.hole() ? n - 1 - vertex.point : vertex.point;
@@ -1109,7 +1146,7 @@ void Reconstruction::Assembly::numberJunctionVertices()
     }
 }
 
-std::optional<std::uint32_t> Reconstruction::Assembly::crossingAtPoint(const std::pair<int, int>& loop, int point) const
+std::optional<std::uint32_t> Reconstruction::Assembly::vertexAtPoint(const std::pair<int, int>& loop, int point) const
 {
     // Crossings are placed to about 1e-12 pixel.
     constexpr double kSamePoint = 1e-9;
@@ -1120,10 +1157,12 @@ std::optional<std::uint32_t> Reconstruction::Assembly::crossingAtPoint(const std
     // A point the polygon holds twice (a sample on the isovalue) keeps its copies: which of them a
     // crossing stands for, the ring's order could not tell.
     if (same(points[(k + 1) % n], at) || same(points[(k + n - 1) % n], at)) return std::nullopt;
-    const Member& m = members[memberAt(loop)];
-    const std::vector<Crossing>& x = m.contour->crossings;
+    const std::size_t i = memberAt(loop);
+    const std::vector<Crossing>& x = members[i].contour->crossings;
     for (std::size_t c = 0; c < x.size(); ++c)
-        if (same(x[c].point, at)) return m.first + static_cast<std::uint32_t>(c);
+        if (same(x[c].point, at)) return members[i].first + static_cast<std::uint32_t>(c);
+    for (const Extra& e : extras[i])
+        if (same(e.point, at)) return e.id;
     return std::nullopt;
 }
 
@@ -1152,34 +1191,8 @@ void Reconstruction::Assembly::placeVertices()
         const Junction& junction = mJunctions[j];
         for (std::size_t node = 0; node < junction.nodeIndex.size(); ++node)
             mesh.vertices[firstNodeOf[j] + node] = mVolume.indexToWorld(junction.nodeIndex[node]);
-        for (std::size_t k = 0; k < parts[j].size(); ++k) {
-            const std::vector<Junction::Part::Corner>& corners = junction.parts[k].corners;
-            const std::vector<Crossing>& x = parts[j][k].crossings;
-            for (std::size_t c = 0; c < x.size(); ++c) {
-                const std::uint32_t id = partFirst[j][k] + static_cast<std::uint32_t>(c);
-                const Junction::Part::Corner &a = corners[x[c].segment],
-                                             &b = corners[(x[c].segment + 1) % corners.size()];
-                const std::pair<int, int> loop = a.member == 1 ? junction.inner : junction.single;
-                const std::vector<glm::dvec2>& polygon = mLoops[loop.first][loop.second].view.polygon;
-                const int size = static_cast<int>(polygon.size());
-                if (a.member >= 0 && a.member == b.member &&
-                    (b.point == (a.point + 1) % size || a.point == (b.point + 1) % size)) {
-                    // On an arc: a segment of that contour's polygon.
-                    const int s = b.point == (a.point + 1) % size ? a.point : b.point;
-                    extras[memberAt(loop)].push_back(
-                        {s, placeOn(polygon[s], polygon[(s + 1) % size], x[c].point), id, x[c].point});
-                    mesh.vertices[id] = toWorld(x[c].point, loop.first);
-                } else { // on a chord between two nodes
-                    const Chord chord{std::min(a.node, b.node), std::max(a.node, b.node)};
-                    const double t =
-                        placeOn(junction.nodePoints[chord.first], junction.nodePoints[chord.second], x[c].point);
-                    onChord[j][chord].push_back({t, id});
-                    mesh.vertices[id] = mVolume.indexToWorld(
-                        glm::mix(junction.nodeIndex[chord.first], junction.nodeIndex[chord.second], t));
-                }
-            }
-        }
     }
+    for (const auto& [id, position] : partVertices) mesh.vertices[id] = position;
     for (std::size_t p = 0; p < mPatches.size(); ++p)
         for (std::size_t v = 0; v < mPatches[p].surface.vertices.size(); ++v) {
             const SlabPatch::Vertex& vertex = mPatches[p].surface.vertices[v];

@@ -2180,6 +2180,14 @@ TEST(Graph, APatchTakesTheCrossingAtItsPoint)
     expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 34, 25}, {106, 82, 66}, 0.2)));
 }
 
+// A random crop of the smoke at iso 0.3 (seed 107, crop 9), sliced along x. A fork's part met its
+// single contour's arc at a polygon point that a patch on the contour's other side held too: two
+// vertices there, and from level 1 on two triangles of no area. The patch now takes the part's.
+TEST(Graph, APatchTakesAJunctionsVertexAtItsPoint)
+{
+    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 55, 28}, {95, 78, 67}, 0.3)));
+}
+
 // A random crop of the smoke at iso 0.1 (seed 109, crop 11), sliced along x. A speck alone in its
 // tube had its central point 0.007 pixel from a crossing (0.1 pixel inside its polygon), and the
 // fan round its apex made needles of aspect 167 at every level. Its rays now go out from the middle
