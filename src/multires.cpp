@@ -909,9 +909,14 @@ private:
     void placeVertices();
     void addWallVertices();
     std::size_t memberAt(const std::pair<int, int>& loop) const;
-    // The vertex of `loop`'s ring that lies at its point `point` (a crossing, a junction's node or
-    // part's crossing), if one does.
-    std::optional<std::uint32_t> vertexAtPoint(const std::pair<int, int>& loop, int point) const;
+    // A member's ring as it stands before the patches' points join it (its crossings, a junction's
+    // nodes and parts' crossings), by position: ordered by x, then by id.
+    using RingPoints = std::vector<std::pair<glm::dvec2, std::uint32_t>>;
+    RingPoints ringPoints(std::size_t i) const;
+    // The vertex of `ring` (`loop`'s, from ringPoints) that lies at the loop's point `point`, if one
+    // does.
+    std::optional<std::uint32_t> vertexAtPoint(const std::pair<int, int>& loop, int point,
+                                               const RingPoints& ring) const;
     glm::dvec3 toWorld(const glm::dvec2& uv, int plane) const;
     Ring ringOf(std::size_t i) const;
     void splitForExtras(std::vector<Triangle>& triangles, std::size_t i) const;
@@ -1122,6 +1127,7 @@ void Reconstruction::Assembly::numberPatchVertices()
     // too, into triangles of no area, and a collapse guarded by the worst aspect ratio it takes
     // away could then make any needle (the smoke at iso 0.1: 69 486 at the top level).
     std::map<std::array<int, 3>, std::uint32_t> onLoop; // (plane, loop, point): its vertex
+    std::map<std::size_t, RingPoints> rings;            // per member with a patch's points
     for (std::size_t p = 0; p < mPatches.size(); ++p) {
         const std::vector<SlabPatch::Vertex>& vertices = mPatches[p].surface.vertices;
         for (const SlabPatch::Vertex& vertex : vertices) {
@@ -1133,7 +1139,9 @@ void Reconstruction::Assembly::numberPatchVertices()
             // A ray along a pixel row or column meets the loop at its point, as can a junction's
             // part: the patch takes that vertex, which one of its own would join by an edge of no
             // length.
-            const std::optional<std::uint32_t> shared = vertexAtPoint(loop, vertex.point);
+            auto ring = rings.find(memberAt(loop));
+            if (ring == rings.end()) ring = rings.emplace(memberAt(loop), ringPoints(memberAt(loop))).first;
+            const std::optional<std::uint32_t> shared = vertexAtPoint(loop, vertex.point, ring->second);
             const auto [at, added] =
                 onLoop.insert({{loop.first, loop.second, vertex.point}, shared ? *shared : vertexCount});
             patchIds[p].push_back(at->second);
@@ -1146,7 +1154,8 @@ void Reconstruction::Assembly::numberPatchVertices()
     }
 }
 
-std::optional<std::uint32_t> Reconstruction::Assembly::vertexAtPoint(const std::pair<int, int>& loop, int point) const
+std::optional<std::uint32_t> Reconstruction::Assembly::vertexAtPoint(const std::pair<int, int>& loop, int point,
+                                                                     const RingPoints& ring) const
 {
     // Crossings are placed to about 1e-12 pixel.
     constexpr double kSamePoint = 1e-9;
@@ -1157,13 +1166,24 @@ std::optional<std::uint32_t> Reconstruction::Assembly::vertexAtPoint(const std::
     // A point the polygon holds twice (a sample on the isovalue) keeps its copies: which of them a
     // crossing stands for, the ring's order could not tell.
     if (same(points[(k + 1) % n], at) || same(points[(k + n - 1) % n], at)) return std::nullopt;
-    const std::size_t i = memberAt(loop);
+    const auto from = std::lower_bound(ring.begin(), ring.end(), at.x - kSamePoint,
+                                       [](const auto& entry, double x) { return entry.first.x < x; });
+    for (auto it = from; it != ring.end() && it->first.x <= at.x + kSamePoint; ++it)
+        if (same(it->first, at)) return it->second;
+    return std::nullopt;
+}
+
+Reconstruction::Assembly::RingPoints Reconstruction::Assembly::ringPoints(std::size_t i) const
+{
+    RingPoints ring;
     const std::vector<Crossing>& x = members[i].contour->crossings;
     for (std::size_t c = 0; c < x.size(); ++c)
-        if (same(x[c].point, at)) return members[i].first + static_cast<std::uint32_t>(c);
-    for (const Extra& e : extras[i])
-        if (same(e.point, at)) return e.id;
-    return std::nullopt;
+        ring.push_back({x[c].point, members[i].first + static_cast<std::uint32_t>(c)});
+    for (const Extra& e : extras[i]) ring.push_back({e.point, e.id});
+    std::sort(ring.begin(), ring.end(), [](const auto& a, const auto& b) {
+        return a.first.x != b.first.x ? a.first.x < b.first.x : a.second < b.second;
+    });
+    return ring;
 }
 
 std::size_t Reconstruction::Assembly::memberAt(const std::pair<int, int>& loop) const
