@@ -1552,8 +1552,9 @@ ContourTree Reconstruction::Assembly::treeOf(std::size_t i) const
 // An end joined to a hole by an annulus (a hollow pipe's rim) is tiled as a band from the
 // outer contour to the hole's, both counterclockwise: seen from the outer wall the band turns
 // inward, so it faces +w, outward at the top. Where the hole lies around the wall (a cavity's
-// floor around a post) it turns outward, so it faces -w at the top, as such a floor must. The hole's own end gets nothing. An end at a
-// junction gets nothing either: the junction's triangles close it.
+// floor around a post) it turns outward, so it faces -w at the top, as such a floor must. The
+// hole's own end gets nothing. An end at a junction gets nothing either: the junction's
+// triangles close it.
 void Reconstruction::Assembly::emitCap(std::size_t self, bool top)
 {
     const Member& m = members[self];
