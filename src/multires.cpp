@@ -1213,6 +1213,9 @@ void Reconstruction::Assembly::placeVertices()
             mesh.vertices[firstNodeOf[j] + node] = mVolume.indexToWorld(junction.nodeIndex[node]);
     }
     for (const auto& [id, position] : partVertices) mesh.vertices[id] = position;
+    // Last, so that a vertex a patch's point shares (numberPatchVertices) lies at that point, within
+    // 1e-9 pixel of where its ray or part put it: at every level, as the patch is the same, while
+    // that ray's crossing may be new at this one.
     for (std::size_t p = 0; p < mPatches.size(); ++p)
         for (std::size_t v = 0; v < mPatches[p].surface.vertices.size(); ++v) {
             const SlabPatch::Vertex& vertex = mPatches[p].surface.vertices[v];
