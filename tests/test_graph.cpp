@@ -1207,12 +1207,12 @@ Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
 
 } // namespace
 
-// The smoke at iso 0.1 along y (a crop of its y range 176 to 200 shows the same): between y = 187 and 188 a kidney-shaped section becomes a blob, its
-// left arm ending inside the slab. No plane between agrees with the slab's 19 pieces as a whole,
-// so the slab stays whole, and the band fanned from the blob's lowest point across 13 voxels of
-// air: its top level's triangles there lay 2.23 voxels off. Its cells close as an annulus and
-// stray from the band's straight triangles, so they mesh it, and those triangles lie within a
-// voxel of the isosurface.
+// The smoke at iso 0.1 along y (a crop of its y range 176 to 200 shows the same): between y = 187
+// and 188 a kidney-shaped section becomes a blob, its left arm ending inside the slab. No plane
+// between agrees with the slab's 19 pieces as a whole, so the slab stays whole, and the band fanned
+// from the blob's lowest point across 13 voxels of air: its top level's triangles there lay 2.23
+// voxels off. Its cells close as an annulus and stray from the band's straight triangles, so they
+// mesh it, and those triangles lie within a voxel of the isosurface.
 TEST(Graph, ABandWhoseSlabCouldNotBeHalvedTakesItsCells)
 {
     const Volume volume = smokeCrop({1, 176, 1}, {111, 200, 112}, 0.1); // its y range
@@ -1302,10 +1302,10 @@ TEST(Graph, AHolesFlatCapBesideAKeyholeLeavesItsSlitAlone)
 
 // A random crop of the smoke at iso 0.1, sliced along x: three voids of four voxels, two side by
 // side in each of two voxel planes, the pairs joined across the planes along voxel edges. Where
-// planes were added between, the interpolation closed each void's way out, which volumeToMesh
-// opens through those edges; only a single enclosed voxel's was shown open, so each void was two
-// components (97 against 94, with three handles more, Euler characteristic 162 either way). A plane now shows the way out of a
-// pocket of up to four voxels too (slicer.cpp, showContacts).
+// planes were added between, the interpolation closed each void's way out, which volumeToMesh opens
+// through those edges; only a single enclosed voxel's was shown open, so each void was two
+// components (97 against 94, with three handles more, Euler characteristic 162 either way). A plane
+// now shows the way out of a pocket of up to four voxels too (slicer.cpp, showContacts).
 TEST(Graph, AVoidOfTwoVoxelPairsJoinedAcrossAVoxelPlaneIsOneComponent)
 {
     const Volume volume = smokeCrop({57, 20, 33}, {102, 46, 63}, 0.1);
@@ -1780,10 +1780,10 @@ TEST(Graph, ACutFaceIsMeshedFromItsCells)
 }
 
 // A capsule along z with a ledge in one voxel plane between two slices (the slices lie 2 voxels
-// apart): 4 voxels wide and reaching 3 voxels past the wall, inside in that plane only (the
-// voxel planes beside it are outside there, up to 3 voxels). Neither slice sees it, and the band
-// between them passed about 3 voxels from its edge. The band takes the middle plane's loop, which strays from it, and the
-// top level is within a voxel of the isosurface, with its topology.
+// apart): 4 voxels wide and reaching 3 voxels past the wall, inside in that plane only (the voxel
+// planes beside it are outside there, up to 3 voxels). Neither slice sees it, and the band between
+// them passed about 3 voxels from its edge. The band takes the middle plane's loop, which strays
+// from it, and the top level is within a voxel of the isosurface, with its topology.
 TEST(Graph, ABandTakesTheMiddlePlaneWhereItsLoopStrays)
 {
     for (const int ledge : {15, 16}) { // whichever of the two lies between the slices
@@ -1816,11 +1816,12 @@ TEST(Graph, ABulgeBetweenSlicesOfTheSmokeTakesAPlane)
     expectTopLevelOnTheIsosurface(smokeCrop({52, 110, 27}, {97, 140, 54}, 0.2));
 }
 
-// AHoleOnOnePartnersSideIsNoGapBetweenThePartners in a crop of the smoke at iso 0.2, sliced along z: at z = 40.5 a lobe forks off a
-// body with a one-pixel hole, which opens into the body's side by 40.75. The hole was cut where
-// it is nearest the neck, 7 pixels across the body, and the lobe's band closed over that stretch
-// of the plane inside the body: 2.31 voxels from the isosurface at the top level. A keyhole
-// through the pixel the partners' plane has opened cuts the ring instead: within a voxel.
+// AHoleOnOnePartnersSideIsNoGapBetweenThePartners in a crop of the smoke at iso 0.2, sliced along
+// z: at z = 40.5 a lobe forks off a body with a one-pixel hole, which opens into the body's side by
+// 40.75. The hole was cut where it is nearest the neck, 7 pixels across the body, and the lobe's
+// band closed over that stretch of the plane inside the body: 2.31 voxels from the isosurface at
+// the top level. A keyhole through the pixel the partners' plane has opened cuts the ring instead:
+// within a voxel.
 TEST(Graph, AHoleThatOpensIntoOnePartnersSideIsCutOpenByAKeyhole)
 {
     const Volume volume = smokeCrop({69, 95, 25}, {94, 117, 59}, 0.2);
@@ -2174,7 +2175,7 @@ TEST(Graph, ACollapsesShortestEdgesGoFirst)
 // A random crop of the smoke at iso 0.2 (seed 110, crop 6), sliced along x. A ray along a pixel row
 // met a loop at one of its polygon's points, and the patch of the slab beside it had its own vertex
 // there: an edge of no length, and from level 1 on two triangles of no area that no collapse could
-// take. The patch now takes the crossing (Assembly::crossingAtPoint).
+// take. The patch now takes the crossing (Assembly::vertexAtPoint).
 TEST(Graph, APatchTakesTheCrossingAtItsPoint)
 {
     expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 34, 25}, {106, 82, 66}, 0.2)));
@@ -2190,7 +2191,7 @@ TEST(Graph, APatchTakesAJunctionsVertexAtItsPoint)
 
 // A random crop of the smoke at iso 0.1 (seed 109, crop 11), sliced along x. A speck alone in its
 // tube had its central point 0.007 pixel from a crossing (0.1 pixel inside its polygon), and the
-// fan round its apex made needles of aspect 167 at every level. Its rays now go out from the middle
+// fan round its apex made needles of aspect 157 to 167 at every level. Its rays now go out from the middle
 // of its crossings (Reconstruction::centreLoneContour).
 TEST(Graph, ALoneSpecksRaysGoOutFromItsMiddle)
 {
@@ -2356,11 +2357,11 @@ TEST(Graph, ChordsTooLongForTheirSlabAreHalvedAtEveryLevel)
     }
 }
 // A Y-shaped pipe open at its three ends: its rounded rims appear as arcs that close into a ring
-// (several walls against a wall and its hole), and its channel forks with the wall. Where the oblique channel leaves each
-// rounded end, the last sections are thin crescents whose horns run along the rim: their bands
-// are halved below half a voxel while the shape changes fast, and each crescent's centre stays a
-// pixel clear near its predecessor's (a jump to the centroid, by the inner edge, turned the
-// horns against each other's rays: 1.07 voxels off).
+// (several walls against a wall and its hole), and its channel forks with the wall. Where the
+// oblique channel leaves each rounded end, the last sections are thin crescents whose horns run
+// along the rim: their bands are halved below half a voxel while the shape changes fast, and each
+// crescent's centre stays a pixel clear near its predecessor's (a jump to the centroid, by the
+// inner edge, turned the horns against each other's rays: 1.07 voxels off).
 TEST(Graph, HollowY)
 {
     expectIsosurfaceTopology("hollow-y");
