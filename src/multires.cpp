@@ -1855,7 +1855,14 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
     for (std::size_t s = 0; s < mPositions.size(); ++s)
         if (thinnest[s] <= kThinSlab) thin.positions.push_back(mPositions[s]);
     std::sort(thin.positions.begin(), thin.positions.end());
+    // The top level's collapses keep within its bound of the isosurface (a voxel), with a tenth of
+    // a voxel to spare for the points between those the field is asked at. The corner removal
+    // below does not: the tendrils' tips it tiles anew are thinner than the field's samples lie
+    // apart, and with the bound 9 more levels of the evaluation kept a needle over 100.
+    constexpr double kTopReach = 0.9;
+    const SurfaceBound bound = top ? SurfaceBound{&mVolume, kTopReach} : SurfaceBound{};
     NeedleCollapse shortEdges;
+    shortEdges.bound = bound;
     if (paper && !top)
         shortEdges.thin = &thin;
     else
@@ -1881,6 +1888,7 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         needles.needleAspect = kCollapseAspect;
         needles.lowerWorst = needles.measureMove = true;
         needles.alongCorners = !top;
+        needles.bound = bound;
         collapseNeedleEdges(mesh, reach, coarser, needles);
         long long flips = flipNeedles(mesh, mVolume, mPlan.axis);
         result.flips = flips;
@@ -1910,19 +1918,6 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
 }
 
 namespace {
-
-// The point of triangle abc farthest from its corners: its circumcentre where that lies inside
-// (no angle is obtuse), else the middle of its longest edge.
-glm::dvec3 farthestFromCorners(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
-{
-    const glm::dvec3 ab = b - a, ac = c - a, bc = c - b;
-    const double ab2 = glm::dot(ab, ab), ac2 = glm::dot(ac, ac), bc2 = glm::dot(bc, bc);
-    if (ab2 >= ac2 + bc2) return 0.5 * (a + b);
-    if (ac2 >= ab2 + bc2) return 0.5 * (a + c);
-    if (bc2 >= ab2 + ac2) return 0.5 * (b + c);
-    const glm::dvec3 n = glm::cross(ab, ac);
-    return a + (ab2 * glm::cross(ac, n) + ac2 * glm::cross(n, ab)) / (2.0 * glm::dot(n, n));
-}
 
 // Whether triangle t of `vertices` lies farther than `reach` voxels from the isosurface at its
 // point farthest from its corners (which lie on the surface), as far as the field shows.

@@ -297,6 +297,7 @@ struct Guard {
     bool lowerWorst = false; // lower the largest aspect ratio of the triangles around the vertex that goes
     double reach = 0.0; // world units: an edge longer than this goes only where the surface moves less (collapseMove)
     bool everywhere = false; // collapseMove samples the new triangles all over, not at a few points
+    SurfaceBound bound;
 };
 
 using Corners = std::array<glm::dvec3, 3>;
@@ -363,6 +364,7 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
     if (far && goes.size() > 1) return false;
     const auto moves = [&](std::uint32_t w) { return std::find(goes.begin(), goes.end(), w) != goes.end(); };
     std::vector<Corners> before, after;
+    const bool measured = far || guard.bound.volume;
     double worstBefore = 0.0, worstAfter = 0.0;
     for (const std::uint32_t f : around) {
         if (gone[f]) continue;
@@ -378,13 +380,15 @@ bool collapseImproves(const TriangleMesh& mesh, const std::vector<std::uint32_t>
         // C's junctions leave 198 such triangles on each level unless they go).
         if (normal != glm::dvec3(0.0) && !(glm::dot(faceNormal(mesh, t), normal) > 0.0)) return false;
         worstAfter = std::max(worstAfter, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
-        if (far) after.push_back({p[t[0]], p[t[1]], p[t[2]]});
+        if (measured) after.push_back({p[t[0]], p[t[1]], p[t[2]]});
     }
     if (guard.lowerWorst && !(worstAfter < worstBefore)) return false;
     // Even a collapse of two vertices a hair apart makes no needle (past kLargestAspect) worse than
     // the worst it takes away: on Gaffer's smoke one moved a vertex onto the line through two
     // others, a triangle of aspect 4.5e14 at levels 2 and 3.
     if (worstAfter > kLargestAspect && !(worstAfter <= worstBefore)) return false;
+    if (!std::all_of(after.begin(), after.end(), [&](const Corners& t) { return guard.bound.holds(t[0], t[1], t[2]); }))
+        return false;
     return !far || collapseMove(p[a], p[b], before, after, guard.everywhere) <= guard.reach;
 }
 
@@ -629,6 +633,27 @@ glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm
     return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
+bool SurfaceBound::holds(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) const
+{
+    if (!volume) return true;
+    // The corners lie on the surface, so a small triangle is near it throughout without asking
+    // the field, which misses a speck thinner than the spacing of its samples.
+    const glm::dvec3 q = farthestFromCorners(a, b, c);
+    const double nearest = std::min({glm::distance(q, a), glm::distance(q, b), glm::distance(q, c)});
+    return nearest <= voxels * volume->smallestVoxel() || volume->surfaceWithin(q, voxels);
+}
+
+glm::dvec3 farthestFromCorners(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const glm::dvec3 ab = b - a, ac = c - a, bc = c - b;
+    const double ab2 = glm::dot(ab, ab), ac2 = glm::dot(ac, ac), bc2 = glm::dot(bc, bc);
+    if (ab2 >= ac2 + bc2) return 0.5 * (a + b);
+    if (ac2 >= ab2 + bc2) return 0.5 * (a + c);
+    if (bc2 >= ab2 + ac2) return 0.5 * (b + c);
+    const glm::dvec3 n = glm::cross(ab, ac);
+    return a + (ab2 * glm::cross(ac, n) + ac2 * glm::cross(n, ab)) / (2.0 * glm::dot(n, n));
+}
+
 std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& mesh)
 {
     std::vector<glm::dvec3> normals(mesh.vertices.size());
@@ -739,7 +764,7 @@ long long collapseNeedleEdges(TriangleMesh& mesh, double tolerance, const std::v
             return x.also != kNoVertex && before(p[x.also], p[y.also]);
         });
         pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-        round = collapsePairs(mesh, pairs, Guard{how.lowerWorst, tolerance});
+        round = collapsePairs(mesh, pairs, Guard{how.lowerWorst, tolerance, false, how.bound});
     }
     return collapsed;
 }

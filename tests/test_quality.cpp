@@ -76,6 +76,34 @@ TEST(Quality, SphereNormalsFromTheFieldAreTheRadialOnes)
         sphere, [&](const glm::dvec3& p) { return glm::normalize(p - centre); }, normalBoundDegrees(24.0));
 }
 
+TEST(Quality, ASurfaceBoundHoldsWhereTheFieldShowsTheSurfaceNearEnough)
+{
+    // Equilateral triangles with their corners on a sphere of radius 24 voxels around its pole:
+    // a triangle whose corners lie at angle t from the pole has its circumcentre, the point farthest
+    // from its corners, 24 (1 - cos t) below the surface, 24 sin t from each corner.
+    const double radius = 24.0;
+    const glm::dvec3 centre(32.0);
+    const Volume sphere = samples::levelSetFromDistance(
+        [&](const glm::dvec3& p) { return glm::length(p - centre) - radius; }, glm::ivec3(64), 1.0, "sphere");
+    const auto around = [&](double depth) {
+        const double c = 1.0 - depth / radius, s = std::sqrt(1.0 - c * c);
+        std::array<glm::dvec3, 3> corners;
+        for (int k = 0; k < 3; ++k) {
+            const double phi = 2.0 * 3.14159265358979323846 * k / 3.0;
+            corners[k] = centre + radius * glm::dvec3(s * std::cos(phi), s * std::sin(phi), c);
+        }
+        return corners;
+    };
+    const SurfaceBound bound{&sphere, 0.9};
+    // Half a voxel deep, 4.9 from its corners: the field shows the surface (within 0.88 of the
+    // reach it always does). Two voxels deep, it does not, as no surface lies within the reach.
+    const std::array<glm::dvec3, 3> shallow = around(0.5), deep = around(2.0);
+    EXPECT_TRUE(bound.holds(shallow[0], shallow[1], shallow[2]));
+    EXPECT_FALSE(bound.holds(deep[0], deep[1], deep[2]));
+    // Without a volume, no bound.
+    EXPECT_TRUE(SurfaceBound{}.holds(deep[0], deep[1], deep[2]));
+}
+
 TEST(Quality, CapsuleNormalsFromTheFieldAreTheAnalyticOnes)
 {
     // A capsule of radius 24 along z: the normal points away from the nearest point of its axis

@@ -45,6 +45,19 @@ struct ThinSlabPlanes {
     bool holdBoth(const glm::dvec3& a, const glm::dvec3& b) const;
 };
 
+/// How near the isosurface the triangles that collapses make must stay, whatever the triangles
+/// they replace (the top level's bound, a voxel). The move measured against those adds up over
+/// collapses, the field does not: the phantom sliced along y went from 0.98 voxel off as tiled to
+/// 1.11 after its collapses. Without a volume, no bound.
+struct SurfaceBound {
+    const Volume* volume = nullptr;
+    double voxels = 0.0;
+    /// Whether triangle abc, its corners on the isosurface, keeps the isosurface within `voxels` of
+    /// its point farthest from its corners: that point lies so near a corner, or the field shows
+    /// the surface that near (Volume::surfaceWithin). Always, without a volume.
+    bool holds(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) const;
+};
+
 /// Which edges collapseNeedleEdges looks at, and which collapses it makes, past the short ones.
 struct NeedleCollapse {
     /// Only the edges of triangles whose aspect ratio exceeds this are looked at (0: every
@@ -67,6 +80,8 @@ struct NeedleCollapse {
     /// With measureMove, a needle's corners that the coarser level lacks may also go along their
     /// other edges, and their neighbours into them, as the needles' own edges do.
     bool alongCorners = false;
+    /// A collapse is made only where every triangle it makes keeps within this bound.
+    SurfaceBound bound = {};
 };
 
 /// Removes the vertices that make needles. Each end of an edge no longer than `tolerance` (world
@@ -148,6 +163,11 @@ constexpr double kCollapseAspect = kLargestAspect / 2.0;
 /// and edge regions claims gives its corner a. Used by validation's distances and by the needle
 /// collapses' measure of how far the surface moves.
 glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
+
+/// The point of triangle abc farthest from its corners: its circumcentre where that lies inside
+/// (no angle is obtuse), else the middle of its longest edge. Where a triangle with its corners on
+/// a smooth surface leaves it farthest, as far as one point tells.
+glm::dvec3 farthestFromCorners(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
 
 /// Triangles with an angle below this many degrees are counted as needles in reports.
 constexpr double kNeedleDegrees = 5.0;
