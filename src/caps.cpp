@@ -588,19 +588,12 @@ void Reconstruction::centreLoneContour(SliceLoop& member, const SlicePlane& plan
     };
     const Contour from = castRays(member.view, finest, plane);
     if (from.crossings.empty() || nearest(from) >= kClearance) return;
-    // The middle of the finest crossings' polygon (its centroid by area).
-    glm::dvec2 sum(0.0);
-    double area2 = 0.0;
-    for (std::size_t k = 0, n = from.crossings.size(); k < n; ++k) {
-        const glm::dvec2 a = from.crossings[k].point, b = from.crossings[(k + 1) % n].point;
-        const double cross = a.x * b.y - a.y * b.x;
-        sum += cross * (a + b);
-        area2 += cross;
-    }
-    if (!(std::abs(area2) > 0.0)) return;
-    const glm::dvec2 middle = sum / (3.0 * area2);
-    if (!liesInside(member.loop, middle)) return;
-    LoopView view = viewFrom(member.loop, middle);
+    // The middle of the finest crossings' polygon.
+    std::vector<glm::dvec2> points;
+    for (const Crossing& x : from.crossings) points.push_back(x.point);
+    const std::optional<glm::dvec2> middle = polygonCentroid(points);
+    if (!middle || !liesInside(member.loop, *middle)) return;
+    LoopView view = viewFrom(member.loop, *middle);
     if (view.winding != 1) return;
     const Contour again = castRays(view, finest, plane);
     // A sliver thinner than that everywhere keeps its point: no other would do better.

@@ -932,6 +932,20 @@ double polygonArea(const std::vector<glm::dvec2>& polygon)
     return 0.5 * area2;
 }
 
+std::optional<glm::dvec2> polygonCentroid(const std::vector<glm::dvec2>& polygon)
+{
+    glm::dvec2 sum(0.0);
+    double area2 = 0.0;
+    for (std::size_t i = 0, m = polygon.size(); i < m; ++i) {
+        const glm::dvec2 a = polygon[i], b = polygon[(i + 1) % m];
+        const double cross = a.x * b.y - a.y * b.x;
+        sum += cross * (a + b);
+        area2 += cross;
+    }
+    if (!(std::abs(area2) > 0.0)) return std::nullopt;
+    return sum / (3.0 * area2);
+}
+
 double commonDepth(const BoundaryLoop& loop, const std::vector<const std::vector<glm::dvec2>*>& polygons,
                    const glm::dvec2& p)
 {

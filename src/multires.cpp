@@ -1139,8 +1139,9 @@ void Reconstruction::Assembly::numberPatchVertices()
             // A ray along a pixel row or column meets the loop at its point, as can a junction's
             // part: the patch takes that vertex, which one of its own would join by an edge of no
             // length.
-            auto ring = rings.find(memberAt(loop));
-            if (ring == rings.end()) ring = rings.emplace(memberAt(loop), ringPoints(memberAt(loop))).first;
+            const std::size_t member = memberAt(loop);
+            auto ring = rings.find(member);
+            if (ring == rings.end()) ring = rings.emplace(member, ringPoints(member)).first;
             const std::optional<std::uint32_t> shared = vertexAtPoint(loop, vertex.point, ring->second);
             const auto [at, added] =
                 onLoop.insert({{loop.first, loop.second, vertex.point}, shared ? *shared : vertexCount});
@@ -1149,7 +1150,7 @@ void Reconstruction::Assembly::numberPatchVertices()
             const BoundaryLoop& boundary = mLoops[loop.first][loop.second].loop;
             const int n = static_cast<int>(boundary.points.size());
             const int segment = boundary.hole() ? n - 1 - vertex.point : vertex.point;
-            extras[memberAt(loop)].push_back({segment, 0.0, vertexCount++, boundary.points[vertex.point]});
+            extras[member].push_back({segment, 0.0, vertexCount++, boundary.points[vertex.point]});
         }
     }
 }

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -177,6 +178,9 @@ BoundaryLoop waistAround(const std::vector<const std::vector<glm::dvec2>*>& wall
 
 /// Signed area of a polygon, pixels^2: > 0 counterclockwise.
 double polygonArea(const std::vector<glm::dvec2>& polygon);
+
+/// A polygon's centroid by area; std::nullopt where its signed area is 0.
+std::optional<glm::dvec2> polygonCentroid(const std::vector<glm::dvec2>& polygon);
 
 /// How deep a point lies inside the loop and every polygon at once: its distance to the nearest
 /// of their edges, or -1 if it lies outside any.
