@@ -1891,19 +1891,19 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         needles.alongCorners = !top;
         needles.bound = bound;
         collapseNeedleEdges(mesh, reach, coarser, needles);
-        long long flips = flipNeedles(mesh, mVolume, mPlan.axis);
+        long long flips = flipNeedles(mesh, mVolume, mPlan.axis, coarser);
         result.flips = flips;
         // A flip lowers the worse of two triangles, and the better one it made can be a needle a
         // collapse now takes (the gaffer smoke's 118 at level 0): collapses and flips take turns
         // until either finds nothing. Each collapse removes a vertex, so the turns end.
         while (flips > 0 && collapseNeedleEdges(mesh, reach, coarser, needles) > 0) {
-            flips = flipNeedles(mesh, mVolume, mPlan.axis);
+            flips = flipNeedles(mesh, mVolume, mPlan.axis, coarser);
             result.flips += flips;
         }
         // Below the top level the short edges go once more: the passes since can free one the
         // first could not take (the hollow Y's level 2 kept one of 0.094 voxel).
         if (!top && collapseNeedleEdges(mesh, shortEdge, coarser, shortEdges) > 0)
-            result.flips += flipNeedles(mesh, mVolume, mPlan.axis);
+            result.flips += flipNeedles(mesh, mVolume, mPlan.axis, coarser);
         // What the collapses leave of a speck far thinner than a voxel can be a pillow of needles
         // (the smoke at iso 0.1 along y: aspect 541 at every level); it becomes a spindle.
         inflatePillows(mesh, mVolume, coarser);
@@ -1913,6 +1913,10 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // smoke at iso 0.1 along y moves its top level by 0.5 voxel (202 there; the top level's
         // distance to the isosurface stayed 0.99 voxel), and at the reach itself it stays.
         removeNeedleCorners(mesh, coarser, 2.0 * reach);
+        // Until here no flip made a needle of three vertices the level below has (flipNeedles):
+        // the needle it would replace could still go with its new corner. What is left may now
+        // flip to the lower of the two.
+        result.flips += flipNeedles(mesh, mVolume, mPlan.axis);
     }
     result.qualitySeconds = secondsSince(quality);
     return std::move(result);

@@ -101,11 +101,45 @@ bool holds(const Triangle& t, std::uint32_t v)
     return t[0] == v || t[1] == v || t[2] == v;
 }
 
+// Lexicographic order of positions (x, then y, then z): the same whichever level holds them.
+bool before(const glm::dvec3& a, const glm::dvec3& b)
+{
+    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+}
+
+// The coarser level's vertices, by position (levels nest by position): how many copies of a
+// point it has. Two constructions can put a vertex on another bit for bit (a junction part's
+// crossing on the single contour's), and each copy that level has must stay. Sorted on the first
+// question: most meshes ask none.
+class CoarserVertices {
+public:
+    explicit CoarserVertices(const std::vector<glm::dvec3>& coarser) : mCoarser(&coarser) {}
+
+    std::ptrdiff_t copies(const glm::dvec3& q)
+    {
+        if (!mSorted) {
+            mKept = *mCoarser;
+            std::sort(mKept.begin(), mKept.end(), before);
+            mSorted = true;
+        }
+        const auto [from, to] = std::equal_range(mKept.begin(), mKept.end(), q, before);
+        return to - from;
+    }
+
+    bool has(const glm::dvec3& q) { return copies(q) > 0; }
+
+private:
+    const std::vector<glm::dvec3>* mCoarser;
+    std::vector<glm::dvec3> mKept;
+    bool mSorted = false;
+};
+
 class NeedleFlipper {
 public:
-    NeedleFlipper(TriangleMesh& mesh, const Volume& volume, int axis)
+    NeedleFlipper(TriangleMesh& mesh, const Volume& volume, int axis, const std::vector<glm::dvec3>& coarser)
         : mMesh(mesh),
-          mMaxMove(kMaxMoveVoxels * volume.smallestVoxel())
+          mMaxMove(kMaxMoveVoxels * volume.smallestVoxel()),
+          mKept(coarser)
     {
         const std::vector<glm::dvec3>& p = mesh.vertices;
         mAspect.reserve(mesh.triangles.size());
@@ -219,6 +253,13 @@ private:
         // sorted from the largest, so the flips end (Lawson's argument), and rounding cannot make
         // two diagonals take turns.
         if (!(std::max(after1, after2) < before * (1.0 - 1e-9))) return false;
+        // A needle of three vertices the level below has stays for good (no collapse or corner
+        // removal may take them), where the one it would replace may still go with its new corner
+        // (the phantom sliced along y: 621 at level 1 became 359 of three such vertices).
+        const auto lasting = [&](double aspect, std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+            return aspect > kLargestAspect && mKept.has(p[x]) && mKept.has(p[y]) && mKept.has(p[z]);
+        };
+        if (lasting(after1, c, a, d) || lasting(after2, d, b, c)) return false;
         // The surface must stay where it was, within a fraction of a voxel: on a coarse level a
         // quad's diagonals can lie voxels apart (a cone's band spanning 300 slices), and taking
         // the other one moves the mesh off the isosurface.
@@ -243,6 +284,7 @@ private:
 
     TriangleMesh& mMesh;
     double mMaxMove;                            // world units
+    CoarserVertices mKept;                      // the level below's vertices
     std::vector<double> mAspect;                // per triangle, kept current
     std::vector<double> mPlaneW;                // per vertex, index-space coordinate along the slicing axis
     std::vector<std::uint32_t> mFirst, mAround; // per vertex, its triangles before any flip
@@ -258,39 +300,6 @@ std::uint32_t rootOf(const std::vector<std::uint32_t>& parent, std::uint32_t v)
     while (parent[v] != v) v = parent[v];
     return v;
 }
-
-// Lexicographic order of positions (x, then y, then z): the same whichever level holds them.
-bool before(const glm::dvec3& a, const glm::dvec3& b)
-{
-    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
-}
-
-// The coarser level's vertices, by position (levels nest by position): how many copies of a
-// point it has. Two constructions can put a vertex on another bit for bit (a junction part's
-// crossing on the single contour's), and each copy that level has must stay. Sorted on the first
-// question: most meshes ask none.
-class CoarserVertices {
-public:
-    explicit CoarserVertices(const std::vector<glm::dvec3>& coarser) : mCoarser(&coarser) {}
-
-    std::ptrdiff_t copies(const glm::dvec3& q)
-    {
-        if (!mSorted) {
-            mKept = *mCoarser;
-            std::sort(mKept.begin(), mKept.end(), before);
-            mSorted = true;
-        }
-        const auto [from, to] = std::equal_range(mKept.begin(), mKept.end(), q, before);
-        return to - from;
-    }
-
-    bool has(const glm::dvec3& q) { return copies(q) > 0; }
-
-private:
-    const std::vector<glm::dvec3>* mCoarser;
-    std::vector<glm::dvec3> mKept;
-    bool mSorted = false;
-};
 
 // What a collapse must do besides keeping a closed manifold so and turning no triangle over.
 struct Guard {
@@ -1110,9 +1119,9 @@ long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>&
     return removed;
 }
 
-long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis)
+long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis, const std::vector<glm::dvec3>& coarser)
 {
-    return NeedleFlipper(mesh, volume, axis).run();
+    return NeedleFlipper(mesh, volume, axis, coarser).run();
 }
 
 } // namespace pipetile

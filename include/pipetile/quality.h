@@ -29,9 +29,12 @@ std::vector<glm::dvec3> vertexNormals(const Volume& volume, const TriangleMesh& 
 /// coordinate along `axis`) and one of whose triangles leaves the plane. In-plane edges between two
 /// in-plane triangles (the chords of a flat cap) may flip. A flip that would fold the surface
 /// (a new triangle facing against the quad) or create an edge the mesh already has is not made.
+/// A flip that would make a triangle past kLargestAspect of three vertices `coarser` has (the
+/// level below's, as collapseNeedleEdges takes them) is not made: no collapse or corner removal
+/// could take that one, where the needle it replaces may still go with its new corner.
 /// Deterministic and single-threaded, so the result does not depend on threads.
 /// @return the number of flips made.
-long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis);
+long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis, const std::vector<glm::dvec3>& coarser = {});
 
 /// Slice planes beside a slab so thin that two vertices of one of them a little apart fan needles
 /// across it whatever the tiling: a triangle on an edge e long to a vertex d away across a slab t
