@@ -1729,10 +1729,10 @@ void Reconstruction::resolveEvents()
         for (const EulerDifference& d : eulerDifferences(*mCells, mGraph, mPositions))
             if (d.difference < 0) missed.push_back(d);
     };
-    if (mCells) {
-        countMissed();
+    if (mCells) countMissed();
+    if (mCells || !mCellPieces.bandRanges.empty()) {
         patchWholeRanges(missed);
-        countMissed(); // a whole range's pieces can count otherwise than its slabs' did
+        if (mCells) countMissed(); // a whole range's pieces can count otherwise than its slabs' did
     }
     for (ContourGraph::Slab& slab : mGraph.slabs) {
         BandMiddle middle; // the slab's middle plane, traced for its first band that asks
@@ -2102,8 +2102,11 @@ void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed
     // Where the pieces of the whole range, patched from its cells, add up to the cells' count,
     // they replace its slabs; the planes between are then no part of the graph.
     std::vector<EulerDifference> ranges = missed;
+    // The ranges of bands whose top level strayed in a first build (strayingPieces), which their
+    // own slabs' cells could not mesh: the count stays.
+    for (const auto& [below, above] : mCellPieces.bandRanges) ranges.push_back({below, above, 0});
     std::size_t from = 0; // the slab after the last voxel plane
-    for (std::size_t k = 1; k < mGraph.order.size(); ++k) {
+    for (std::size_t k = 1; mCells && k < mGraph.order.size(); ++k) {
         const double w = mPositions[mGraph.order[k]];
         if (w != std::floor(w)) continue;
         const double wFrom = mPositions[mGraph.order[from]];

@@ -859,6 +859,9 @@ public:
     /// Per junction `asked`, whether a triangle of its parts lies farther than `reach` voxels
     /// from the isosurface (straysFrom).
     std::vector<bool> strayingJunctions(const std::vector<bool>& asked, double reach);
+    /// Of the bands `asked` (by their lower contour's plane and loop), those with a triangle
+    /// farther than `reach` voxels from the isosurface (straysFrom), as the level tiles them.
+    std::set<std::pair<int, int>> strayingBands(const std::set<std::pair<int, int>>& asked, double reach);
     /// The band between two contours as tileSides gives it, over `vertices`: the lower contour's
     /// crossings in world space, then the upper one's (band-local ids).
     static std::vector<Triangle> bandOf(const Contour& lower, const Contour& upper,
@@ -1937,7 +1940,7 @@ bool straysFrom(const Volume& volume, const std::vector<glm::dvec3>& vertices, c
 
 std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<bool>& asked, double reach)
 {
-    buildTrees();
+    if (trees.empty()) buildTrees();
     std::vector<bool> straying(mJunctions.size(), false);
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         if (!asked[j]) continue;
@@ -1945,6 +1948,23 @@ std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<
         tileJunction(j);
         straying[j] = std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
                                   [&](const Triangle& t) { return straysFrom(mVolume, mesh.vertices, t, reach); });
+    }
+    return straying;
+}
+
+std::set<std::pair<int, int>> Reconstruction::Assembly::strayingBands(const std::set<std::pair<int, int>>& asked,
+                                                                      double reach)
+{
+    if (walled.empty()) addWallVertices(); // as build() tiles them
+    if (trees.empty()) buildTrees();
+    tileBands();
+    std::set<std::pair<int, int>> straying;
+    for (std::size_t i = 1; i < members.size(); ++i) {
+        const std::pair<int, int> lower{members[i - 1].slice, members[i - 1].loop};
+        if (members[i].startsTube || asked.count(lower) == 0) continue;
+        if (std::any_of(bands[i].begin(), bands[i].end(),
+                        [&](const Triangle& t) { return straysFrom(mVolume, mesh.vertices, t, reach); }))
+            straying.insert(lower);
     }
     return straying;
 }
@@ -1963,9 +1983,8 @@ std::vector<Triangle> Reconstruction::Assembly::bandOf(const Contour& lower, con
     return withoutFullFans(tileLeastAreaNearest(a, b), m, static_cast<std::uint32_t>(b.size()));
 }
 
-bool Reconstruction::bandMayStray(const SliceLoop& lower, const SliceLoop& upper, double thickness)
+bool Reconstruction::shapeMayStray(const SliceLoop& lower, const SliceLoop& upper)
 {
-    if (!(thickness > kEventThickness)) return false;
     if (profileChange(lower.profile, upper.profile) > kShapeChange) return true;
     const double smaller = std::min(std::abs(lower.loop.area), std::abs(upper.loop.area));
     return glm::distance(lower.view.center, upper.view.center) > std::sqrt(smaller / M_PI);
@@ -2000,6 +2019,10 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     // The bands that may fan, each from its own two contours with the top level's rays (the rays
     // the level adds at folds left out): only those, so a tube that changes slowly costs nothing.
     std::map<std::pair<int, int>, Contour> contours;
+    // Bands in slabs as thin as the events' that may stray: their own contours alone say little
+    // there (see below); the voxel planes around each.
+    std::map<std::pair<int, int>, std::pair<double, double>> thinBands;
+    std::map<std::pair<int, int>, int> bandAbove; // a straying band's upper plane
     const auto contourOf = [&](const std::pair<int, int>& loop) -> const Contour& {
         auto it = contours.find(loop);
         if (it == contours.end()) {
@@ -2014,9 +2037,14 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
             if (mLoops[m.first][m.second].fromLevel <= top) kept.push_back(m);
         for (std::size_t k = 1; k < kept.size(); ++k) {
             const auto lower = kept[k - 1], upper = kept[k];
-            if (!bandMayStray(mLoops[lower.first][lower.second], mLoops[upper.first][upper.second],
-                              std::abs(mPositions[upper.first] - mPositions[lower.first])))
+            const SliceLoop &below = mLoops[lower.first][lower.second], &above = mLoops[upper.first][upper.second];
+            const double thickness = std::abs(mPositions[upper.first] - mPositions[lower.first]);
+            if (thickness <= kEventThickness) {
+                if (thickness > 0.0 && shapeMayStray(below, above))
+                    thinBands[lower] = {std::floor(mPositions[lower.first]), std::ceil(mPositions[upper.first])};
                 continue;
+            }
+            if (!shapeMayStray(below, above)) continue;
             const Contour& a = contourOf(lower);
             const Contour& b = contourOf(upper);
             if (a.crossings.empty() || b.crossings.empty()) continue;
@@ -2026,16 +2054,37 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
                     vertices.push_back(mVolume.indexToWorld(planeToIndex(mPlan.axis, x.point, mPositions[plane])));
             const std::vector<Triangle> band = Assembly::bandOf(a, b, vertices);
             if (std::any_of(band.begin(), band.end(),
-                            [&](const Triangle& t) { return straysFrom(mVolume, vertices, t, kStray); }))
+                            [&](const Triangle& t) { return straysFrom(mVolume, vertices, t, kStray); })) {
                 straying.bands.insert(lower);
+                bandAbove[lower] = upper.first;
+            }
         }
     }
     // The junctions whose parts may fan, as the top level tiles them.
     std::vector<bool> asked(mJunctions.size(), false);
     for (std::size_t j = 0; j < mJunctions.size(); ++j) asked[j] = partsMayFan(mJunctions[j]);
     std::map<std::array<int, 3>, std::pair<double, double>> slabOf; // a straying junction's slab
-    if (std::find(asked.begin(), asked.end(), true) != asked.end()) {
-        const std::vector<bool> junctions = Assembly(*this, castLevel(top), top).strayingJunctions(asked, kStray);
+    const bool junctionsAsked = std::find(asked.begin(), asked.end(), true) != asked.end();
+    Contours topContours; // the Assembly refers to them
+    std::optional<Assembly> topLevel;
+    if (junctionsAsked || !thinBands.empty()) {
+        topContours = castLevel(top);
+        topLevel.emplace(*this, topContours, top);
+    }
+    // A thin band's own two contours, tiled alone, stray up to 4 voxels in the phantoms whose
+    // top levels keep within 0.96 (fold rays, extras and the area tiler change them): those are
+    // tiled as the top level tiles them. Where one strays, its whole range between voxel planes
+    // is meshed from its cells, where that keeps its pieces' count (patchWholeRanges: a crop of
+    // the smoke, a band in a slab an eighth of a voxel thick fanned across a bay 1.78 voxels off,
+    // its own cells closing with two handles too many).
+    if (!thinBands.empty()) {
+        std::set<std::pair<int, int>> thin;
+        for (const auto& [band, range] : thinBands) thin.insert(band);
+        for (const std::pair<int, int>& band : topLevel->strayingBands(thin, kStray))
+            straying.bandRanges.push_back(thinBands[band]);
+    }
+    if (junctionsAsked) {
+        const std::vector<bool> junctions = topLevel->strayingJunctions(asked, kStray);
         for (std::size_t j = 0; j < mJunctions.size(); ++j) {
             const Junction& junction = mJunctions[j];
             if (!junctions[j] || junction.kind == EventKind::Rim) continue;
@@ -2053,8 +2102,15 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     // whose parts fanned 4 voxels, -3 against -1, 2.02, now 0.71). Halved to a quarter, the first
     // was 1.13 off and the hollow Y sliced along y had needles up to 13 169; now 795 at its top
     // level (278 before), as its arms lie along the slices.
-    for (auto it = straying.bands.begin(); it != straying.bands.end();)
-        it = cellsClose(it->first, it->second, true) ? std::next(it) : straying.bands.erase(it);
+    for (auto it = straying.bands.begin(); it != straying.bands.end();) {
+        if (cellsClose(it->first, it->second, true)) {
+            ++it;
+            continue;
+        }
+        const double below = mPositions[it->first], above = mPositions[bandAbove[*it]];
+        straying.bandRanges.push_back({std::floor(below), std::ceil(above)});
+        it = straying.bands.erase(it);
+    }
     for (auto it = straying.junctions.begin(); it != straying.junctions.end();) {
         if (cellsClose((*it)[1], (*it)[2], (*it)[0] == static_cast<int>(EventKind::Fork))) {
             ++it;

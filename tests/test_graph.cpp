@@ -1256,6 +1256,26 @@ TEST(Graph, AStrayingForkWhoseCellsDoNotCloseGetsThinnerSlabs)
     EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
 }
 
+// A crop of the smoke at iso 0.1 along z: between planes an eighth of a voxel apart, added for
+// the events between z = 38 and 39, a contour's shape changes so much that its band fanned across
+// a bay of air, 1.78 voxels off at the top level. Its own contours, tiled alone, say little in so
+// thin a slab, so the band is asked as the top level tiles it (Reconstruction::strayingPieces);
+// its slab's cells close with two handles too many, so the whole range between the voxel planes
+// is meshed from its cells (patchWholeRanges), and the top level comes within a voxel (0.80).
+TEST(Graph, AStrayingBandInAThinSlabTakesItsRangeBetweenVoxelPlanes)
+{
+    const Volume volume = smokeCrop({23, 117, 29}, {56, 152, 56}, 0.1);
+    MeshOptions options;
+    options.slicing.axis = Axis::Z;
+    const Reconstruction reconstruction(volume, options);
+    const TriangleMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
+    const Validation v = Validator(volume).validate(top);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    const Topology t = checkTopology(top);
+    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+    EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,

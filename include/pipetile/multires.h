@@ -222,7 +222,11 @@ private:
         // Forks and merges whose cells do not close: their slabs (index space along the axis),
         // halved to an eighth of the events' thickness (buildContourGraph's thinJunctions).
         std::vector<std::pair<double, double>> thinJunctions;
-        bool empty() const { return junctions.empty() && bands.empty() && thinJunctions.empty(); }
+        // Bands whose own cells do not close, or in slabs as thin as the events': the voxel planes
+        // around them (index space), whose whole range is meshed from its cells where that keeps
+        // its pieces' count (patchWholeRanges).
+        std::vector<std::pair<double, double>> bandRanges;
+        bool empty() const { return junctions.empty() && bands.empty() && thinJunctions.empty() && bandRanges.empty(); }
     };
     /// The stages below, with the pieces `cellPieces` names meshed from their slab's cells where
     /// those close (resolveEvents).
@@ -266,19 +270,20 @@ private:
     /// tiler, or whose shape, from its partner's centre, differs from the partner's by more than
     /// kShapeChange pixels (a fan joins contours that differ by about its reach).
     bool partsMayFan(const Junction& junction) const;
-    /// Whether a band between two contours `thickness` voxels apart may stray from the isosurface
-    /// at its top level, and take its slab's cells instead: in a slab thicker than the events' (the
-    /// cells of a thinner one leave needles: two capsule trees sliced along x, up to 734 where such
-    /// bands took them), one whose contours change shape by more than kShapeChange pixels (a fan
-    /// joins contours that differ by about its reach), or lie farther apart than the smaller one's
-    /// radius (the band leans across its slab, through whatever lies between: a crop of the smoke,
-    /// a void a voxel across drifting two in one slab, 1.04 voxels off).
-    static bool bandMayStray(const SliceLoop& lower, const SliceLoop& upper, double thickness);
-    /// The forks and merges, and the bands that may stray (bandMayStray), whose triangles
+    /// Whether a band may stray from the isosurface at its top level: one whose contours change
+    /// shape by more than kShapeChange pixels (a fan joins contours that differ by about its
+    /// reach), or lie farther apart than the smaller one's radius (the band leans across its
+    /// slab, through whatever lies between: a crop of the smoke, a void a voxel across drifting
+    /// two in one slab, 1.04 voxels off).
+    static bool shapeMayStray(const SliceLoop& lower, const SliceLoop& upper);
+    /// The forks and merges, and the bands that may stray (shapeMayStray), whose triangles
     /// at the top level stray more than a voxel from the isosurface as far as the field shows
-    /// (Volume::surfaceWithin), and whose cells close: junctions as the level tiles them, bands
-    /// from their own two contours. Straying forks and merges whose cells do not close give their
-    /// slabs' ranges instead (StrayingPieces::thinJunctions).
+    /// (Volume::surfaceWithin): junctions and bands in slabs as thin as the events' as the level
+    /// tiles them, bands in thicker slabs from their own two contours. Those whose cells close
+    /// take them; a band's only in a slab thicker than the events' (the cells of a thinner one
+    /// leave needles: two capsule trees sliced along x, up to 734 where such bands took them).
+    /// Straying forks and merges whose cells do not close give their slabs' ranges instead
+    /// (thinJunctions), and bands their ranges between voxel planes (bandRanges).
     StrayingPieces strayingPieces() const;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
