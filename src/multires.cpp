@@ -2019,10 +2019,27 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     // The bands that may fan, each from its own two contours with the top level's rays (the rays
     // the level adds at folds left out): only those, so a tube that changes slowly costs nothing.
     std::map<std::pair<int, int>, Contour> contours;
-    // Bands in slabs as thin as the events' that may stray: their own contours alone say little
-    // there (see below); the voxel planes around each.
-    std::map<std::pair<int, int>, std::pair<double, double>> thinBands;
-    std::map<std::pair<int, int>, int> bandAbove; // a straying band's upper plane
+    // A band lies in a slab of the graph, between its lower contour and the plane above, or in
+    // part of one that a band's own planes split (splitBand): its cells are that slab's piece's.
+    struct Slab {
+        std::pair<int, int> lower;
+        int above;
+    };
+    std::map<std::pair<int, int>, int> slabAbove; // a straying band's slab: its upper plane
+    const auto strayed = [&](const Slab& slab) {
+        const double w0 = mPositions[slab.lower.first], w1 = mPositions[slab.above];
+        if (std::abs(w1 - w0) > kEventThickness) {
+            straying.bands.insert(slab.lower);
+            slabAbove[slab.lower] = slab.above;
+        } else {
+            straying.bandRanges.push_back({std::floor(std::min(w0, w1)), std::ceil(std::max(w0, w1))});
+        }
+    };
+    // Bands as thin as the events' slabs that may stray: their own contours alone say little
+    // there (see below).
+    std::map<std::pair<int, int>, Slab> thinBands;
+    std::vector<bool> inGraph(mLoops.size(), false);
+    for (const int s : mGraph.order) inGraph[static_cast<std::size_t>(s)] = true;
     const auto contourOf = [&](const std::pair<int, int>& loop) -> const Contour& {
         auto it = contours.find(loop);
         if (it == contours.end()) {
@@ -2035,13 +2052,17 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
         std::vector<std::pair<int, int>> kept; // the members the top level keeps
         for (const auto& m : tube.members)
             if (mLoops[m.first][m.second].fromLevel <= top) kept.push_back(m);
+        std::size_t from = 0; // the member whose plane begins the graph's slab
         for (std::size_t k = 1; k < kept.size(); ++k) {
             const auto lower = kept[k - 1], upper = kept[k];
+            if (inGraph[static_cast<std::size_t>(lower.first)]) from = k - 1;
+            std::size_t to = k;
+            while (to + 1 < kept.size() && !inGraph[static_cast<std::size_t>(kept[to].first)]) ++to;
+            const Slab slab{kept[from], kept[to].first};
             const SliceLoop &below = mLoops[lower.first][lower.second], &above = mLoops[upper.first][upper.second];
             const double thickness = std::abs(mPositions[upper.first] - mPositions[lower.first]);
             if (thickness <= kEventThickness) {
-                if (thickness > 0.0 && shapeMayStray(below, above))
-                    thinBands[lower] = {std::floor(mPositions[lower.first]), std::ceil(mPositions[upper.first])};
+                if (thickness > 0.0 && shapeMayStray(below, above)) thinBands.emplace(lower, slab);
                 continue;
             }
             if (!shapeMayStray(below, above)) continue;
@@ -2054,10 +2075,8 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
                     vertices.push_back(mVolume.indexToWorld(planeToIndex(mPlan.axis, x.point, mPositions[plane])));
             const std::vector<Triangle> band = Assembly::bandOf(a, b, vertices);
             if (std::any_of(band.begin(), band.end(),
-                            [&](const Triangle& t) { return straysFrom(mVolume, vertices, t, kStray); })) {
-                straying.bands.insert(lower);
-                bandAbove[lower] = upper.first;
-            }
+                            [&](const Triangle& t) { return straysFrom(mVolume, vertices, t, kStray); }))
+                strayed(slab);
         }
     }
     // The junctions whose parts may fan, as the top level tiles them.
@@ -2073,15 +2092,15 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     }
     // A thin band's own two contours, tiled alone, stray up to 4 voxels in the phantoms whose
     // top levels keep within 0.96 (fold rays, extras and the area tiler change them): those are
-    // tiled as the top level tiles them. Where one strays, its whole range between voxel planes
-    // is meshed from its cells, where that keeps its pieces' count (patchWholeRanges: a crop of
-    // the smoke, a band in a slab an eighth of a voxel thick fanned across a bay 1.78 voxels off,
-    // its own cells closing with two handles too many).
+    // tiled as the top level tiles them. Where one strays in a slab as thin, the whole range
+    // between the voxel planes around it is meshed from its cells, where that keeps its pieces'
+    // count (patchWholeRanges: a crop of the smoke, a band in a slab an eighth of a voxel thick
+    // fanned across a bay 1.78 voxels off, its own cells closing with two handles too many). In
+    // part of a thicker slab (splitBand), the slab's piece takes its cells, where they close.
     if (!thinBands.empty()) {
         std::set<std::pair<int, int>> thin;
-        for (const auto& [band, range] : thinBands) thin.insert(band);
-        for (const std::pair<int, int>& band : topLevel->strayingBands(thin, kStray))
-            straying.bandRanges.push_back(thinBands[band]);
+        for (const auto& [band, slab] : thinBands) thin.insert(band);
+        for (const std::pair<int, int>& band : topLevel->strayingBands(thin, kStray)) strayed(thinBands.at(band));
     }
     if (junctionsAsked) {
         const std::vector<bool> junctions = topLevel->strayingJunctions(asked, kStray);
@@ -2107,8 +2126,8 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
             ++it;
             continue;
         }
-        const double below = mPositions[it->first], above = mPositions[bandAbove[*it]];
-        straying.bandRanges.push_back({std::floor(below), std::ceil(above)});
+        const double w0 = mPositions[it->first], w1 = mPositions[slabAbove[*it]];
+        straying.bandRanges.push_back({std::floor(std::min(w0, w1)), std::ceil(std::max(w0, w1))});
         it = straying.bands.erase(it);
     }
     for (auto it = straying.junctions.begin(); it != straying.junctions.end();) {

@@ -1261,7 +1261,7 @@ TEST(Graph, AStrayingForkWhoseCellsDoNotCloseGetsThinnerSlabs)
 // a bay of air, 1.78 voxels off at the top level. Its own contours, tiled alone, say little in so
 // thin a slab, so the band is asked as the top level tiles it (Reconstruction::strayingPieces);
 // its slab's cells close with two handles too many, so the whole range between the voxel planes
-// is meshed from its cells (patchWholeRanges), and the top level comes within a voxel (0.80).
+// is meshed from its cells (patchWholeRanges), and the top level comes within a voxel (0.70).
 TEST(Graph, AStrayingBandInAThinSlabTakesItsRangeBetweenVoxelPlanes)
 {
     const Volume volume = smokeCrop({23, 117, 29}, {56, 152, 56}, 0.1);
