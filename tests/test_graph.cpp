@@ -1203,6 +1203,21 @@ Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
     return readVolume(path, read);
 }
 
+// The top level of `volume` sliced along `axis`: within a voxel of the isosurface, and a closed,
+// oriented manifold with its Euler characteristic.
+void expectTopLevelWithinAVoxelAlong(const Volume& volume, Axis axis)
+{
+    MeshOptions options;
+    options.slicing.axis = axis;
+    const Reconstruction reconstruction(volume, options);
+    const TriangleMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
+    const Validation v = Validator(volume).validate(top);
+    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
+    const Topology t = checkTopology(top);
+    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+    EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
+}
+
 } // namespace
 
 // The smoke at iso 0.1 along y (a crop of its y range 176 to 200 shows the same): between y = 187
@@ -1245,15 +1260,7 @@ TEST(Graph, ABandBetweenContoursThatDriftApartIsAskedWhetherItStrays)
 TEST(Graph, AStrayingForkWhoseCellsDoNotCloseGetsThinnerSlabs)
 {
     const Volume volume = smokeCrop({40, 140, 20}, {59, 165, 45}, 0.2);
-    MeshOptions options;
-    options.slicing.axis = Axis::X;
-    const Reconstruction reconstruction(volume, options);
-    const TriangleMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
-    const Validation v = Validator(volume).validate(top);
-    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
-    const Topology t = checkTopology(top);
-    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
-    EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
+    expectTopLevelWithinAVoxelAlong(volume, Axis::X);
 }
 
 // A crop of the smoke at iso 0.1 along z: between planes an eighth of a voxel apart, added for
@@ -1265,15 +1272,7 @@ TEST(Graph, AStrayingForkWhoseCellsDoNotCloseGetsThinnerSlabs)
 TEST(Graph, AStrayingBandInAThinSlabTakesItsRangeBetweenVoxelPlanes)
 {
     const Volume volume = smokeCrop({23, 117, 29}, {56, 152, 56}, 0.1);
-    MeshOptions options;
-    options.slicing.axis = Axis::Z;
-    const Reconstruction reconstruction(volume, options);
-    const TriangleMesh top = reconstruction.buildLevel(reconstruction.levelCount() - 1).mesh;
-    const Validation v = Validator(volume).validate(top);
-    EXPECT_LE(v.symmetric.max / v.voxel, 1.0);
-    const Topology t = checkTopology(top);
-    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
-    EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
+    expectTopLevelWithinAVoxelAlong(volume, Axis::Z);
 }
 
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
