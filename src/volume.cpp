@@ -67,6 +67,17 @@ const char* fileKind(std::filesystem::file_type type)
     }
 }
 
+// OpenVDB's message about a file, for the user: a damaged file can put megabytes of its bytes in
+// it (a fuzzed .vdb: building the message itself ran out of memory), so it is cut short, without
+// copying the rest.
+std::string libraryMessage(const std::exception& e)
+{
+    constexpr std::size_t kLongest = 300;
+    const char* what = e.what();
+    const std::size_t length = strnlen(what, kLongest + 1);
+    return length > kLongest ? std::string(what, kLongest) + "..." : std::string(what, length);
+}
+
 // Memory ran out while reading: the grid is too large for what this process may use, or a damaged
 // file claims more data than it holds (OpenVDB allocates what the file declares before reading it).
 Error outOfMemoryReading(const std::string& path, const std::string& what)
@@ -101,7 +112,7 @@ std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
     } catch (const std::bad_alloc&) {
         throw outOfMemoryReading(path, "it");
     } catch (const std::exception& e) {
-        throw Error(inQuotes(path) + ": not a readable VDB file (" + e.what() +
+        throw Error(inQuotes(path) + ": not a readable VDB file (" + libraryMessage(e) +
                     "); check that it is a complete .vdb written by OpenVDB 3 or later");
     }
     return file;
@@ -145,7 +156,7 @@ std::vector<GridSummary> summarizeGrids(openvdb::io::File& file, const std::stri
     } catch (const std::bad_alloc&) {
         throw outOfMemoryReading(path, "its grid descriptions");
     } catch (const std::exception& e) {
-        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + e.what() +
+        throw Error(inQuotes(path) + ": cannot read the grid descriptions (" + libraryMessage(e) +
                     "); the file may be truncated or damaged");
     }
     return grids;
@@ -558,7 +569,7 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
     } catch (const std::bad_alloc&) {
         throw outOfMemoryReading(path, "grid " + inQuotes(name));
     } catch (const std::exception& e) {
-        throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) + " (" + e.what() +
+        throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) + " (" + libraryMessage(e) +
                     "); the file may be truncated or damaged");
     }
     auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);

@@ -257,6 +257,24 @@ TEST(Regressions, AbsurdBloscChunkSizeIsAnError)
 #endif
 }
 
+TEST(Regressions, AMessageOfOpenVdbMegabytesLongIsCutShort)
+{
+    // fuzz_vdb: an 869-byte file whose grid type OpenVDB reads as a string of 50 MB and quotes
+    // whole in its LookupError. readVolume quoted it whole too: 50 MB on stderr, and under
+    // fuzz_vdb's 64 MB allocation limit std::bad_alloc instead of Error. It keeps 300 characters of
+    // OpenVDB's message (src/volume.cpp, libraryMessage); with the path and the advice around
+    // them, under 1000.
+    const std::string path = fuzzInput("vdb", "grid_type_50mb_in_message.vdb");
+    try {
+        readVolume(path);
+        ADD_FAILURE() << "a damaged file read as if whole";
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_LT(message.size(), 1000u);
+        EXPECT_NE(message.find("not a readable VDB file"), std::string::npos) << message.substr(0, 400);
+    }
+}
+
 TEST(Regressions, AbsurdMetadataSizesAreAnErrorEvenShortOfMemory)
 {
 #ifdef PIPETILE_TEST_ASAN
