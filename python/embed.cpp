@@ -24,7 +24,7 @@ MeshedLevels meshLevels(const Volume& volume, const MeshOptions& options)
     MeshedLevels result{nestLevels(levels), {}};
     // Meshing and the levels' topology; unlike the CLI's, reading the volume and writing files are not in it.
     report["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    result.report = report.dump();
+    result.report = tools::reportText(report);
     return result;
 }
 
@@ -42,14 +42,14 @@ MeshedFiles meshFiles(const std::string& input, const std::string& output, const
     job.notify = [&](const char* kind, const std::string& text) {
         result.notes.push_back(std::string(kind) + ": " + text);
     };
-    result.report = tools::meshFrame(job).dump();
+    result.report = tools::reportText(tools::meshFrame(job));
     return result;
 }
 
 std::string validateMesh(const Volume& volume, const TriangleMesh& mesh, int threads)
 {
     const Validator validator(volume, {1.0, threads});
-    return tools::validationReport(validator.validate(mesh)).dump();
+    return tools::reportText(tools::validationReport(validator.validate(mesh)));
 }
 
 } // namespace pipetile::python

@@ -7,6 +7,7 @@
 #include "embed.h"
 #include "frame.h"
 #include "pyopenvdb_grid.h"
+#include "report.h"
 #include "sequence.h"
 
 #include <pipetile/error.h>
@@ -173,7 +174,7 @@ std::string sequenceReport(const std::string& input, const std::string& output, 
     for (const nlohmann::json& o : nlohmann::json::parse(outcomes))
         frames.push_back({o["frame"].get<int>(), o["input"].get<std::string>(), o["status"].get<std::string>(),
                           o.value("error", std::string()), o.value("report", nlohmann::json())});
-    return tools::sequenceReport(input, output, frames, seconds).dump();
+    return tools::reportText(tools::sequenceReport(input, output, frames, seconds));
 }
 
 std::string validate(const Volume& volume,

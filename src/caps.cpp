@@ -691,7 +691,7 @@ void Reconstruction::closeEnds()
     mStats.droppedFlat = static_cast<int>(std::count_if(mTubes.begin(), mTubes.end(), lone));
     mTubes.erase(std::remove_if(mTubes.begin(), mTubes.end(), lone), mTubes.end());
     if (mTubes.empty())
-        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
+        throw Error("'" + mVolume.source() + "', grid '" + printableName(mVolume.gridName()) +
                         "': every cross-section lies in a single slice and cannot be closed; lower the spacing",
                     {Setting::Spacing});
     joinRims();

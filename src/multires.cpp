@@ -317,7 +317,7 @@ void Reconstruction::traceSlices()
         }
     }
     if (mStats.contours == 0)
-        throw Error("'" + mVolume.source() + "', grid '" + mVolume.gridName() +
+        throw Error("'" + mVolume.source() + "', grid '" + printableName(mVolume.gridName()) +
                         "': no slice crosses the surface at iso " + std::to_string(mVolume.iso()) + " (" +
                         std::to_string(sliceCount) +
                         " slices); the object is thinner than the slice spacing: lower the spacing",

@@ -113,7 +113,7 @@ Topology checkTopology(const TriangleMesh& mesh)
 DistanceStats levelSetDistanceAtVertices(const Volume& volume, const TriangleMesh& mesh)
 {
     if (volume.volumeClass() != VolumeClass::LevelSet)
-        throw Error("'" + volume.source() + "', grid '" + volume.gridName() +
+        throw Error("'" + volume.source() + "', grid '" + printableName(volume.gridName()) +
                     "': a fog volume's values are not distances; compare against the isosurface instead");
     DistanceStats stats;
     double sum = 0.0, sum2 = 0.0;

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -37,6 +38,11 @@ void initializeOpenVdb()
 std::string inQuotes(const std::string& s)
 {
     return "'" + s + "'";
+}
+
+std::string nameInQuotes(const std::string& name)
+{
+    return inQuotes(printableName(name));
 }
 
 std::string formatValue(double v)
@@ -118,13 +124,16 @@ std::unique_ptr<openvdb::io::File> openFile(const std::string& path)
     return file;
 }
 
+// The grids a message lists: the first 20 (a damaged file can claim thousands), and how many more.
 std::string listNames(const std::vector<GridSummary>& grids)
 {
+    constexpr std::size_t kListed = 20;
     std::string s;
-    for (const GridSummary& g : grids) {
+    for (std::size_t i = 0; i < std::min(grids.size(), kListed); ++i) {
         if (!s.empty()) s += ", ";
-        s += inQuotes(g.name) + " (" + g.valueType + ")";
+        s += nameInQuotes(grids[i].name) + " (" + grids[i].valueType + ")";
     }
+    if (grids.size() > kListed) s += ", and " + std::to_string(grids.size() - kListed) + " more";
     return s.empty() ? "none" : s;
 }
 
@@ -229,10 +238,10 @@ openvdb::GridBase::Ptr readGridBounded(const std::string& path, const std::strin
         // Another grid of a type this OpenVDB does not know: read only ours, through io::File.
         return nullptr;
     } catch (const std::ios_base::failure&) {
-        throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) +
+        throw Error(inQuotes(path) + ": cannot read grid " + nameInQuotes(name) +
                     ": the file ends before the grid's data does; it is truncated or damaged");
     }
-    throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " could not be read back");
+    throw Error(inQuotes(path) + ": grid " + nameInQuotes(name) + " could not be read back");
 }
 
 /// The grid readVolume meshes, from one read of the whole file, when that read settles it: the
@@ -524,6 +533,23 @@ glm::dvec3 Volume::fieldGradient(const glm::dvec3& world) const
     return {g.x(), g.y(), g.z()};
 }
 
+std::string printableName(const std::string& name)
+{
+    constexpr std::size_t kLongest = 100;
+    std::string shown;
+    for (std::size_t i = 0; i < std::min(name.size(), kLongest); ++i) {
+        const unsigned char c = static_cast<unsigned char>(name[i]);
+        if (c >= 0x20 && c != 0x7f) {
+            shown += static_cast<char>(c);
+            continue;
+        }
+        char escaped[5];
+        std::snprintf(escaped, sizeof escaped, "\\x%02x", c);
+        shown += escaped;
+    }
+    return name.size() > kLongest ? shown + "..." : shown;
+}
+
 std::vector<GridSummary> listGrids(const std::string& path)
 {
     return summarizeGrids(*openFile(path), path);
@@ -551,11 +577,11 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
     } else {
         const auto it = std::find_if(grids.begin(), grids.end(), [&](const GridSummary& g) { return g.name == name; });
         if (it == grids.end())
-            throw Error(inQuotes(path) + ": has no grid named " + inQuotes(name) + " (grids: " + listNames(grids) +
+            throw Error(inQuotes(path) + ": has no grid named " + nameInQuotes(name) + " (grids: " + listNames(grids) +
                             "); pick one by name",
                         {Setting::Grid});
         if (it->valueType != "float")
-            throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " holds " + it->valueType +
+            throw Error(inQuotes(path) + ": grid " + nameInQuotes(name) + " holds " + it->valueType +
                             " values, not float; pick a scalar float grid by name (grids: " + listNames(grids) + ")",
                         {Setting::Grid});
     }
@@ -567,14 +593,14 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
     } catch (const Error&) {
         throw;
     } catch (const std::bad_alloc&) {
-        throw outOfMemoryReading(path, "grid " + inQuotes(name));
+        throw outOfMemoryReading(path, "grid " + nameInQuotes(name));
     } catch (const std::exception& e) {
-        throw Error(inQuotes(path) + ": cannot read grid " + inQuotes(name) + " (" + libraryMessage(e) +
+        throw Error(inQuotes(path) + ": cannot read grid " + nameInQuotes(name) + " (" + libraryMessage(e) +
                     "); the file may be truncated or damaged");
     }
     auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
     if (!grid)
-        throw Error(inQuotes(path) + ": grid " + inQuotes(name) + " is not a float grid; pick another by name",
+        throw Error(inQuotes(path) + ": grid " + nameInQuotes(name) + " is not a float grid; pick another by name",
                     {Setting::Grid});
     return volumeFromGrid(grid, options, path);
 }
@@ -582,7 +608,7 @@ Volume readVolume(const std::string& path, const VolumeOptions& options)
 Volume volumeFromGrid(openvdb::FloatGrid::ConstPtr input, const VolumeOptions& options, const std::string& source)
 {
     initializeOpenVdb();
-    const std::string where = inQuotes(source) + ", grid " + inQuotes(input->getName());
+    const std::string where = inQuotes(source) + ", grid " + nameInQuotes(input->getName());
     if (input->tree().activeVoxelCount() == 0)
         throw Error(where + ": the grid is empty (no active voxels); nothing to mesh");
 

@@ -380,6 +380,29 @@ TEST(Cli, UnknownGridNameListsTheGrids)
                   {"no grid named 'density'", "'levelset' (float)", "--grid"});
 }
 
+// File names are bytes: one in Latin-1 is no UTF-8, which JSON must be. The report writes such
+// bytes as U+FFFD (nlohmann's dump threw, and the run lost every output); the table shows the grid's
+// name with its control bytes escaped (here ESC, which would drive the terminal).
+TEST(Cli, ALatin1FileNameAndAControlByteInTheGridNameAreReported)
+{
+    TempDir dir;
+    openvdb::initialize();
+    const openvdb::FloatGrid::Ptr sphere =
+        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
+    sphere->setName("\x1b[31mred");
+    const std::string input = dir.path("caf\xe9.vdb");
+    openvdb::io::File(input).write({sphere});
+    const test::CliResult r =
+        runCli("mesh '" + input + "' --levels 1 -o '" + dir.path("m.ply") + "' --report '" + dir.path("r.json") + "'");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("grid '\\x1b[31mred'"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find('\x1b'), std::string::npos) << r.out;
+    const nlohmann::json j = readJson(dir.path("r.json"));
+    EXPECT_EQ(j["grid"].get<std::string>(), "\x1b[31mred"); // valid UTF-8: kept, JSON escapes it
+    EXPECT_NE(j["input"].get<std::string>().find("caf\xef\xbf\xbd.vdb"), std::string::npos);
+    EXPECT_TRUE(std::filesystem::exists(dir.path("m_L0.ply")));
+}
+
 TEST(Cli, RefusesAnEmptyGrid)
 {
     TempDir dir;

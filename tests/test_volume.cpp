@@ -259,3 +259,24 @@ TEST(Volume, MessagesNameSettingsInWordsNotByFlag)
         EXPECT_EQ(e.settings(), std::vector<Setting>{Setting::Iso});
     }
 }
+
+TEST(Volume, AGridNameFromTheFileIsShownCutShortAndEscaped)
+{
+    // A file may name its grids with anything: messages quote a name's first 100 bytes, with the
+    // bytes below a space written as \xNN (an escape sequence would drive the user's terminal),
+    // and list 20 grids of many. Here 25 grids, the first named ESC "[2J" and a megabyte.
+    TempDir dir;
+    openvdb::GridPtrVec grids;
+    for (int i = 0; i < 25; ++i) {
+        openvdb::FloatGrid::Ptr grid = smallLevelSet();
+        grid->setName(i == 0 ? "\x1b[2J" + std::string(1 << 20, 'a') : "g" + std::to_string(i));
+        grids.push_back(grid);
+    }
+    openvdb::io::File(dir.path("names.vdb")).write(grids);
+    const std::string msg = messageOf([&] { readVolume(dir.path("names.vdb"), {"density", {}}); });
+    EXPECT_LT(msg.size(), 1000u) << msg.substr(0, 400);
+    EXPECT_NE(msg.find("'\\x1b[2J" + std::string(96, 'a') + "...' (float)"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\x1b'), std::string::npos) << msg;
+    EXPECT_NE(msg.find(", and 5 more"), std::string::npos) << msg;
+    EXPECT_EQ(printableName("levelset"), "levelset");
+}

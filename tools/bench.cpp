@@ -127,7 +127,7 @@ int runBench(const BenchArgs& args)
     options.threads = args.threads;
     json report = {{"input", volume.source()}, {"grid", volume.gridName()}, {"repeat", repeat}};
     std::printf("# pipetile bench: %s, grid '%s' (median of %d runs; min..max in the JSON)\n\n",
-                volume.source().c_str(), volume.gridName().c_str(), repeat);
+                volume.source().c_str(), pipetile::printableName(volume.gridName()).c_str(), repeat);
 
     // The whole pipeline, all levels, as `pipetile mesh` runs it (files aside).
     std::vector<LevelMesh> levels;
@@ -280,11 +280,12 @@ int runBench(const BenchArgs& args)
     report["pipetile"] = timingJson(pipeline);
     std::printf("\npipetile mesh, all %d levels: %.4f s (min %.4f, max %.4f)\n", options.levels, pipeline.median,
                 pipeline.min, pipeline.max);
-    if (!args.report.empty()) outputs->write(args.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
+    if (!args.report.empty())
+        outputs->write(args.report, [&](std::ostream& out) { out << reportText(report, 2) << '\n'; });
     if (!args.html.empty()) {
         html.title = "pipetile bench: " + volume.source();
-        html.subtitle = "grid '" + volume.gridName() + "', median of " + std::to_string(repeat) +
-                        " runs; distances to the uniform isosurface";
+        html.subtitle = "grid '" + pipetile::printableName(volume.gridName()) + "', median of " +
+                        std::to_string(repeat) + " runs; distances to the uniform isosurface";
         html.peers = peers;
         tools::writeHtmlReport(*outputs, args.html, html, nested, glb);
     }

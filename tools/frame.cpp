@@ -169,7 +169,7 @@ std::unique_ptr<OutputSet> openOutputs(const std::vector<NamedPath>& outputs, co
 
 void noteIsovalue(const Volume& volume, const Notify& notify)
 {
-    const std::string grid = "grid '" + volume.gridName() + "'";
+    const std::string grid = "grid '" + pipetile::printableName(volume.gridName()) + "'";
     if (volume.hotVoxels() > 0) {
         const bool one = volume.hotVoxels() == 1;
         notify("note", format("%s: iso %g, halfway from the background %g to %g; %lld voxel%s denser (up to %g), too "
@@ -197,8 +197,8 @@ void warnIfUnresolved(const Volume& volume, const ReconstructionStats& stats, co
     notify("warning", format("grid '%s': %d slab piece%s (%d of them forks or merges) fit no construction and %s "
                              "capped contour by contour: there the mesh's topology can differ from the "
                              "isosurface's (see the report's events; --validate compares them)",
-                             volume.gridName().c_str(), pieces, pieces == 1 ? "" : "s", stats.unresolvedJunctions,
-                             pieces == 1 ? "is" : "are"));
+                             pipetile::printableName(volume.gridName()).c_str(), pieces, pieces == 1 ? "" : "s",
+                             stats.unresolvedJunctions, pieces == 1 ? "is" : "are"));
 }
 
 // The slabs' labelling counts no handle that lies within one slab (voxels joined around a corner
@@ -238,8 +238,9 @@ void warnIfHandlesMissed(const Volume& volume, const json& report, const Notify&
            format("grid '%s': the isosurface's Euler characteristic is %lld (counted from its cells as volumeToMesh "
                   "sees them) but the slabs' is %lld: the mesh %s %lld handle%s at the voxel scale %s%s%s (--validate "
                   "compares the topologies)",
-                  volume.gridName().c_str(), cells, slabs, slabs > cells ? "lacks" : "has", handles,
-                  handles == 1 ? "" : "s", slabs > cells ? "that no slab piece shows" : "that the isosurface lacks",
+                  pipetile::printableName(volume.gridName()).c_str(), cells, slabs, slabs > cells ? "lacks" : "has",
+                  handles, handles == 1 ? "" : "s",
+                  slabs > cells ? "that no slab piece shows" : "that the isosurface lacks",
                   listed ? "; the two counts part between index " : "", where.c_str()));
 }
 
@@ -257,7 +258,7 @@ void warnIfBuiltDiffers(const Volume& volume, const ReconstructionStats& stats, 
            format("grid '%s': the mesh's Euler characteristic is %lld where its slab pieces count %lld: some "
                   "piece was closed contour by contour where the slab joins its contours (see the "
                   "report's events and graph; --validate compares the topologies)",
-                  volume.gridName().c_str(), built, slabs));
+                  pipetile::printableName(volume.gridName()).c_str(), built, slabs));
 }
 
 } // namespace
@@ -336,14 +337,14 @@ json meshFrame(const FrameJob& job)
         const ReconstructionStats& stats = reconstruction.stats();
         HtmlReport html;
         html.title = "pipetile mesh: " + volume.source();
-        html.subtitle = format("grid '%s' (%s, iso %g), axis %s, %d slices, %d tubes", volume.gridName().c_str(),
-                               toString(volume.volumeClass()), volume.iso(), axisName(reconstruction.plan().axis),
-                               stats.slices, stats.tubes);
+        html.subtitle = format("grid '%s' (%s, iso %g), axis %s, %d slices, %d tubes",
+                               pipetile::printableName(volume.gridName()).c_str(), toString(volume.volumeClass()),
+                               volume.iso(), axisName(reconstruction.plan().axis), stats.slices, stats.tubes);
         html.levels = report["levels"];
         html.voxel = volume.smallestVoxel();
         writeHtmlReport(*files, job.html, html, nested, glbOptions);
     }
-    if (!job.report.empty()) files->write(job.report, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
+    if (!job.report.empty()) files->write(job.report, [&](std::ostream& out) { out << reportText(report, 2) << '\n'; });
     files->commit();
     files.reset(); // releases and removes the lock files: nothing of this run is left to do
     if (job.committed) job.committed();

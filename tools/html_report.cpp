@@ -1,6 +1,7 @@
 // pipetile — the HTML report: the page template filled with the run's data and its levels' .glb.
 
 #include "html_report.h"
+#include "report.h"
 
 #include <pipetile/error.h>
 
@@ -31,7 +32,7 @@ std::string base64(const std::string& bytes)
 // JSON inside a <script> element: "</" would end the element, so it is written "<\/" (same JSON).
 std::string scriptSafeJson(const nlohmann::json& value)
 {
-    std::string text = value.dump();
+    std::string text = reportText(value);
     for (std::size_t at = text.find("</"); at != std::string::npos; at = text.find("</", at + 3))
         text.insert(at + 1, "\\");
     return text;

@@ -65,7 +65,7 @@ double secondsSince(Clock::time_point start)
 
 void writeJson(const json& report, pipetile::OutputSet& outputs, const std::string& path)
 {
-    outputs.write(path, [&](std::ostream& out) { out << report.dump(2) << '\n'; });
+    outputs.write(path, [&](std::ostream& out) { out << pipetile::tools::reportText(report, 2) << '\n'; });
 }
 
 // What is wrong with a mesh's topology, in words, with where the first non-manifold edge and
@@ -185,8 +185,9 @@ void printLevels(const pipetile::Volume& volume, const pipetile::Reconstruction&
 {
     const pipetile::ReconstructionStats& stats = reconstruction.stats();
     std::printf("%s  grid '%s' (%s, iso %g), axis %s, %d slices, %d contours in %d tubes\n", volume.source().c_str(),
-                volume.gridName().c_str(), pipetile::toString(volume.volumeClass()), volume.iso(),
-                pipetile::tools::axisName(reconstruction.plan().axis), stats.slices, stats.contours, stats.tubes);
+                pipetile::printableName(volume.gridName()).c_str(), pipetile::toString(volume.volumeClass()),
+                volume.iso(), pipetile::tools::axisName(reconstruction.plan().axis), stats.slices, stats.contours,
+                stats.tubes);
     std::printf("%5s %6s %10s %10s %9s  %s\n", "level", "rays", "vertices", "triangles", "seconds", "file");
     for (std::size_t k = 0; k < levels.size(); ++k)
         std::printf("%5d %6d %10zu %10zu %9.4f  %s\n", levels[k].level, levels[k].rays, levels[k].mesh.vertices.size(),
@@ -288,7 +289,7 @@ int runValidate(const ValidateArgs& args)
     const pipetile::Validator validator(volume, {1.0, args.threads});
     const pipetile::Validation v = validator.validate(mesh);
     std::printf("%s against the isosurface of %s, grid '%s' at iso %g (volumeToMesh: %zu triangles, %.4f s)\n",
-                args.mesh.c_str(), args.input.c_str(), volume.gridName().c_str(), volume.iso(),
+                args.mesh.c_str(), args.input.c_str(), pipetile::printableName(volume.gridName()).c_str(), volume.iso(),
                 validator.reference().triangles.size(), validator.referenceSeconds());
     printValidationHeader();
     printValidationRow("mesh", v);
@@ -316,8 +317,8 @@ int runValidate(const ValidateArgs& args)
         const pipetile::NestedLevels one{mesh.vertices, {mesh.vertices.size()}, {mesh.triangles}};
         pipetile::tools::HtmlReport html;
         html.title = "pipetile validate: " + args.mesh;
-        html.subtitle = "against the isosurface of " + args.input + ", grid '" + volume.gridName() + "' at iso " +
-                        formatNumber(volume.iso());
+        html.subtitle = "against the isosurface of " + args.input + ", grid '" +
+                        pipetile::printableName(volume.gridName()) + "' at iso " + formatNumber(volume.iso());
         html.levels = json::array({{{"name", std::filesystem::path(args.mesh).filename().string()},
                                     {"vertices", mesh.vertices.size()},
                                     {"triangles", mesh.triangles.size()},

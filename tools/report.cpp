@@ -218,4 +218,9 @@ json validationReport(const Validation& v)
     return j;
 }
 
+std::string reportText(const nlohmann::json& report, int indent)
+{
+    return report.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 } // namespace pipetile::tools

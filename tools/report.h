@@ -24,4 +24,9 @@ nlohmann::json levelReport(const LevelMesh& level, bool topology);
 /// The validation block: distances in world units and voxels, topology, area, volume, quality.
 nlohmann::json validationReport(const Validation& validation);
 
+/// A report as JSON text (`indent` as nlohmann's dump). Paths and grid names are bytes, not always
+/// UTF-8 (a file named in Latin-1, a grid name from a damaged file): such bytes become U+FFFD, as
+/// JSON must be UTF-8, where dump's default would throw and lose the run's outputs.
+std::string reportText(const nlohmann::json& report, int indent = -1);
+
 } // namespace pipetile::tools

@@ -100,6 +100,11 @@ private:
     std::shared_ptr<const Impl> mImpl;
 };
 
+/// A grid's name as messages and tables show it: a file may name a grid with anything, megabytes
+/// of it or control bytes that would drive the user's terminal, so a name longer than 100 bytes is
+/// cut short (with "...") and bytes below a space are written as \xNN.
+std::string printableName(const std::string& name);
+
 /// Lists the grids of a .vdb file without reading their voxels.
 /// @throw Error if the file is missing, unreadable or not a VDB file.
 std::vector<GridSummary> listGrids(const std::string& path);
