@@ -2059,13 +2059,17 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
         int above;
     };
     std::map<std::pair<int, int>, int> slabAbove; // a straying band's slab: its upper plane
+    // The voxel planes around a slab: the range whose cells a band there takes instead.
+    const auto voxelRange = [&](int lower, int above) {
+        const double w0 = mPositions[static_cast<std::size_t>(lower)], w1 = mPositions[static_cast<std::size_t>(above)];
+        return std::pair<double, double>{std::floor(std::min(w0, w1)), std::ceil(std::max(w0, w1))};
+    };
     const auto strayed = [&](const Slab& slab) {
-        const double w0 = mPositions[slab.lower.first], w1 = mPositions[slab.above];
-        if (std::abs(w1 - w0) > kEventThickness) {
+        if (std::abs(mPositions[slab.above] - mPositions[slab.lower.first]) > kEventThickness) {
             straying.bands.insert(slab.lower);
             slabAbove[slab.lower] = slab.above;
         } else {
-            straying.bandRanges.push_back({std::floor(std::min(w0, w1)), std::ceil(std::max(w0, w1))});
+            straying.bandRanges.push_back(voxelRange(slab.lower.first, slab.above));
         }
     };
     // Bands as thin as the events' slabs that may stray: their own contours alone say little
@@ -2159,8 +2163,7 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
             ++it;
             continue;
         }
-        const double w0 = mPositions[it->first], w1 = mPositions[slabAbove[*it]];
-        straying.bandRanges.push_back({std::floor(std::min(w0, w1)), std::ceil(std::max(w0, w1))});
+        straying.bandRanges.push_back(voxelRange(it->first, slabAbove[*it]));
         it = straying.bands.erase(it);
     }
     for (auto it = straying.junctions.begin(); it != straying.junctions.end();) {
