@@ -7,7 +7,6 @@
 #include <pipetile/detail/field_image.h>
 #include <pipetile/detail/pixel_window.h>
 #include <pipetile/error.h>
-#include <pipetile/quality.h>
 #include <pipetile/slicer.h>
 
 #include <glm/geometric.hpp>
@@ -1343,56 +1342,6 @@ std::vector<std::vector<int>> wallPoints(const Contour& contour, const LoopView&
         }
         for (std::size_t i = 1; i + 1 < walk.size(); ++i)
             if (keep[i]) kept[k].push_back(index[i]);
-    }
-    return kept;
-}
-
-std::vector<std::vector<int>> fanPoints(const Contour& contour, const LoopView& view,
-                                        const std::vector<std::array<glm::dvec2, 2>>& pairs, double gap,
-                                        double largestAspect)
-{
-    const std::size_t count = contour.crossings.size(), m = view.polygon.size();
-    std::vector<std::vector<int>> kept(count);
-    if (pairs.empty() || count < 3) return kept;
-    const auto edgePoint = [&](std::size_t k, const glm::dvec2& p) {
-        const glm::dvec2 a = contour.crossings[k].point, b = contour.crossings[(k + 1) % count].point;
-        const double length2 = glm::dot(b - a, b - a);
-        return length2 > 0.0 ? a + (b - a) * std::clamp(glm::dot(p - a, b - a) / length2, 0.0, 1.0) : a;
-    };
-    const auto distance2 = [](const glm::dvec2& a, const glm::dvec2& b) { return glm::dot(b - a, b - a); };
-    const auto inPlane = [](const glm::dvec2& p, double w) { return glm::dvec3(p, w); };
-    // Per edge, the closest pair it fans (infinity: none).
-    std::vector<double> fanned(count, std::numeric_limits<double>::infinity());
-    for (const auto& [p, q] : pairs) {
-        const glm::dvec2 middle = 0.5 * (p + q);
-        std::size_t k = 0;
-        for (std::size_t e = 1; e < count; ++e)
-            if (distance2(edgePoint(e, middle), middle) < distance2(edgePoint(k, middle), middle)) k = e;
-        const Crossing& a = contour.crossings[k];
-        const Crossing& b = contour.crossings[(k + 1) % count];
-        const glm::dvec3 p3 = inPlane(p, gap), q3 = inPlane(q, gap);
-        if (a.segment != b.segment && aspectRatio(inPlane(a.point, 0.0), p3, q3) > largestAspect &&
-            aspectRatio(inPlane(b.point, 0.0), p3, q3) > largestAspect &&
-            aspectRatio(inPlane(edgePoint(k, middle), 0.0), p3, q3) <= largestAspect)
-            fanned[k] = std::min(fanned[k], std::sqrt(distance2(p, q)));
-    }
-    for (std::size_t k = 0; k < count; ++k) {
-        if (!std::isfinite(fanned[k])) continue;
-        // A point of the edge d from the nearest to a pair s apart along it makes a triangle of
-        // aspect ratio about sqrt(3)/2 (gap^2 + d^2) / (s gap): points 2d apart keep the closest
-        // pair under a quarter of the bound (the tiler need not take the nearest point).
-        const double d2 = std::max(largestAspect / 4.0 * (2.0 / std::sqrt(3.0)) * fanned[k] * gap - gap * gap, 0.25);
-        const double spacing2 = 4.0 * d2;
-        const Crossing& a = contour.crossings[k];
-        const Crossing& b = contour.crossings[(k + 1) % count];
-        glm::dvec2 last = a.point;
-        for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
-            if (distance2(view.polygon[i], last) >= spacing2 && distance2(view.polygon[i], b.point) >= spacing2) {
-                kept[k].push_back(static_cast<int>(i));
-                last = view.polygon[i];
-            }
-            if (i == static_cast<std::size_t>(b.segment)) break;
-        }
     }
     return kept;
 }

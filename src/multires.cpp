@@ -911,7 +911,6 @@ private:
     void numberPatchVertices();
     void placeVertices();
     void addWallVertices();
-    std::vector<std::array<glm::dvec2, 2>> extraPairs(std::size_t i) const;
     std::size_t memberAt(const std::pair<int, int>& loop) const;
     // A member's ring as it stands before the patches' points join it (its crossings, a junction's
     // nodes and parts' crossings), by position: ordered by x, then by id.
@@ -1234,9 +1233,9 @@ void Reconstruction::Assembly::placeVertices()
 // The top level's wall vertices: where an edge of a contour between a tube's ends strays more than
 // a voxel from the boundary it stands for (wallPoints), the polygon points that keep it within
 // half a voxel, as extras. Rays from the central point cannot reach such a wall (it points at the
-// centre), and the sectors' halvings stop at RaySet::kFoldDepth. So do edges that a neighbouring
-// contour's run of extras lies along (fanPoints). No finer level is built from the top level, so
-// levels still nest. The bands beside such a contour are tiled from the rings (tileBands).
+// centre), and the sectors' halvings stop at RaySet::kFoldDepth. No finer level is built from the
+// top level, so levels still nest. The bands beside such a contour are tiled from the rings
+// (tileBands).
 void Reconstruction::Assembly::addWallVertices()
 {
     walled.assign(members.size(), 0);
@@ -1251,20 +1250,7 @@ void Reconstruction::Assembly::addWallVertices()
         const Member& m = members[i];
         // Tube ends, and contours with extras of their own, are capped or joined: left as they are.
         if (m.startsTube || m.endsTube || !extras[i].empty()) return;
-        const LoopView& view = mLoops[m.slice][m.loop].view;
-        points[i] = wallPoints(*m.contour, view, kWallReach, kWallTolerance);
-        // Where a neighbour's extras (a patch's points, pixel by pixel) lie along an edge, the band
-        // would fan them from the edge's ends: the edge gets points of its own.
-        for (const std::size_t j : {i - 1, i + 1}) {
-            const double gap = std::abs(mPositions[m.slice] - mPositions[members[j].slice]);
-            const std::vector<std::vector<int>> fanned =
-                fanPoints(*m.contour, view, extraPairs(j), gap, kLargestAspect);
-            for (std::size_t k = 0; k < fanned.size(); ++k) {
-                points[i][k].insert(points[i][k].end(), fanned[k].begin(), fanned[k].end());
-                std::sort(points[i][k].begin(), points[i][k].end());
-                points[i][k].erase(std::unique(points[i][k].begin(), points[i][k].end()), points[i][k].end());
-            }
-        }
+        points[i] = wallPoints(*m.contour, mLoops[m.slice][m.loop].view, kWallReach, kWallTolerance);
     });
     for (std::size_t i = 0; i < members.size(); ++i) {
         const std::vector<glm::dvec2>& polygon = mLoops[members[i].slice][members[i].loop].view.polygon;
@@ -1276,25 +1262,6 @@ void Reconstruction::Assembly::addWallVertices()
                 ++result.wallVertices;
             }
     }
-}
-
-// Member i's extras that are neighbours on its polygon (a patch's points), as pairs.
-std::vector<std::array<glm::dvec2, 2>> Reconstruction::Assembly::extraPairs(std::size_t i) const
-{
-    const std::size_t m = mLoops[members[i].slice][members[i].loop].view.polygon.size();
-    std::vector<const Extra*> sorted;
-    for (const Extra& e : extras[i]) sorted.push_back(&e);
-    std::sort(sorted.begin(), sorted.end(), [](const Extra* a, const Extra* b) {
-        return a->segment != b->segment ? a->segment < b->segment : a->param < b->param;
-    });
-    std::vector<std::array<glm::dvec2, 2>> pairs;
-    for (std::size_t k = 0; k < sorted.size(); ++k) {
-        const Extra& a = *sorted[k];
-        const Extra& b = *sorted[(k + 1) % sorted.size()];
-        if (&a != &b && static_cast<std::size_t>(b.segment) == (static_cast<std::size_t>(a.segment) + 1) % m)
-            pairs.push_back({a.point, b.point});
-    }
-    return pairs;
 }
 
 // A contour's ring: its crossings in walk order with its extras merged in by their place on

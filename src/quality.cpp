@@ -49,6 +49,15 @@ glm::dvec3 unitOrZero(const glm::dvec3& v)
     return length > 0.0 && std::isfinite(length) ? v / length : glm::dvec3(0.0);
 }
 
+// Longest edge over shortest altitude, times sqrt(3)/2 so that an equilateral triangle has 1
+// (validate.h's measure); infinite for a triangle of no area.
+double aspectRatio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
+{
+    const double longest2 = std::max(glm::dot(b - a, b - a), std::max(glm::dot(c - b, c - b), glm::dot(a - c, a - c)));
+    const double twiceArea = glm::length(glm::cross(b - a, c - a));
+    return twiceArea > 0.0 ? longest2 / twiceArea * (std::sqrt(3.0) / 2.0) : std::numeric_limits<double>::infinity();
+}
+
 // The distance between segments [p0, p1] and [q0, q1] (Ericson, Real-Time Collision Detection,
 // 5.1.9): how far a flip from one diagonal of a quad to the other moves the surface, at most.
 double segmentDistance(const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& q0, const glm::dvec3& q1)
@@ -609,13 +618,6 @@ std::array<Triangle, 6> spindleBetween(TriangleMesh& mesh, const Volume& volume,
 }
 
 } // namespace
-
-double aspectRatio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
-{
-    const double longest2 = std::max(glm::dot(b - a, b - a), std::max(glm::dot(c - b, c - b), glm::dot(a - c, a - c)));
-    const double twiceArea = glm::length(glm::cross(b - a, c - a));
-    return twiceArea > 0.0 ? longest2 / twiceArea * (std::sqrt(3.0) / 2.0) : std::numeric_limits<double>::infinity();
-}
 
 glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
 {

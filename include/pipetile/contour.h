@@ -6,7 +6,6 @@
 #include <glm/common.hpp>
 #include <glm/vec2.hpp>
 
-#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -265,18 +264,6 @@ std::vector<int> strayingChords(const Contour& contour, const LoopView& view, do
 /// its ends, however the sectors are halved (a trifurcation sliced along y: a 50-voxel chord
 /// along the trunk, 1.3 voxels off).
 std::vector<std::vector<int>> wallPoints(const Contour& contour, const LoopView& view, double reach, double tolerance);
-
-/// The polygon points that keep a band from fanning a run of points along it `gap` pixels across
-/// (a patch's points on the next contour, `pairs` of neighbours along it): per crossing k, the
-/// indices into view.polygon (in walk order) on each edge that is the contour's nearest to a pair
-/// that makes a triangle past `largestAspect` with either of the edge's ends but not with the
-/// edge's point nearest to it, spaced so that the closest such pair makes none past a quarter of
-/// it with the nearest of them. Rays from a central point meet a long strip's walls far apart, and
-/// a band from such an edge to a patch's points, pixel by pixel along it, fans them from its ends
-/// (the Y sliced along y: 107 at the top level, a patch's points along an edge 14 pixels long).
-std::vector<std::vector<int>> fanPoints(const Contour& contour, const LoopView& view,
-                                        const std::vector<std::array<glm::dvec2, 2>>& pairs, double gap,
-                                        double largestAspect);
 
 /// Chords longer than `length` pixels between crossings of two neighbouring rays: sectors
 /// (ascending, once each). A band across a thin slab has triangles as long as its chords and about

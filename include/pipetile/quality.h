@@ -161,10 +161,6 @@ constexpr double kNeedleReachVoxels = 0.3;
 constexpr double kLargestAspect = 100.0;
 constexpr double kCollapseAspect = kLargestAspect / 2.0;
 
-/// Longest edge over shortest altitude, times sqrt(3)/2 so that an equilateral triangle has 1
-/// (validate.h's measure); infinite for a triangle of no area.
-double aspectRatio(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c);
-
 /// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5: by the
 /// Voronoi regions of the corners, edges and face). A triangle of no area that none of the corner
 /// and edge regions claims gives its corner a. Used by validation's distances and by the needle
