@@ -22,5 +22,11 @@ cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPIPETILE_SANITIZE=ON 
       -DPIPETILE_WERROR=$werror >/dev/null
 nice cmake --build "$build" -j"$jobs"
 built=$SECONDS
-ctest --test-dir "$build" --output-on-failure -j"$jobs"
+# The smoke at iso 0.1 is meshed whole once here (Quality.NoNeedlesOnTheSmokeAtTheIsovalueItsReadmeGives,
+# every level along y); its other whole-plume runs (along x and z, the top level's distance, the
+# topology of every level) take the same code paths and 4 to 10 minutes each under the sanitizers,
+# which would take CI past its time. The Release suite above runs them.
+skip='^(KnownGap\.TheSmokeAtItsReadmeIsovalueHasNoNeedlesAlongXAndZ|Graph\.TheSmokesWholePlumeHasTheIsosurfaceTopology'
+skip+='|Graph\.TheSmokeAtItsReadmeIsovalueIsWithinAVoxel(AlongX|AlongZ)?)$'
+ctest --test-dir "$build" --output-on-failure -j"$jobs" -E "$skip"
 echo "sanitize.sh: build $((built - start)) s, tests $((SECONDS - built)) s"
