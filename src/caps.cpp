@@ -483,13 +483,17 @@ void Reconstruction::closeEnd(Tube& tube, bool top, bool probeAnyway,
     // reaching farther than its contours (a blob's flat top in one voxel plane, barely past the
     // isovalue: its end contour a quarter voxel below was a sliver of it, 2.40 voxels off). Where
     // the cells of the graph's piece that ends it close it with the piece's Euler characteristic,
-    // they mesh it instead of its end contours, as for a fork or merge.
+    // they mesh it instead of its end contours, as for a fork or merge. So is one whose band to
+    // its end contours strayed from the surface at the top level of a first build
+    // (strayingPieces: a crop of the smoke, a band fanned across a bay of its last contour).
     // The end contours of this pass are the last planes; an end with end contours from an earlier
     // pass (the first found no apex past its end contour) keeps them.
     const std::size_t added = mPositions.size() - planes, last = graphEnd(tube, top);
     if ((top ? tube.members.size() - 1 - last : last) != added) return;
     TubeEnd& end = top ? tube.top : tube.bottom;
-    if (!(end.unregistered || reachesPastContours(tube, top, voxelPlanes)) || !patchEnd(tube, top)) return;
+    const auto [s, l] = tube.members[last];
+    const bool strayed = mCellPieces.ends.count({top ? 1 : 0, s, l}) > 0;
+    if (!(end.unregistered || strayed || reachesPastContours(tube, top, voxelPlanes)) || !patchEnd(tube, top)) return;
     end.hasApex = false;
     ++mStats.endPatches;
     mPositions.resize(planes);

@@ -860,8 +860,10 @@ public:
     /// from the isosurface (straysFrom).
     std::vector<bool> strayingJunctions(const std::vector<bool>& asked, double reach);
     /// Of the bands `asked` (by their lower contour's plane and loop), those with a triangle
-    /// farther than `reach` voxels from the isosurface (straysFrom), as the level tiles them.
-    std::set<std::pair<int, int>> strayingBands(const std::set<std::pair<int, int>>& asked, double reach);
+    /// farther than `reach` voxels from the isosurface (straysFrom; straysAnywhere for those of
+    /// `ends`, bands to end contours), as the level tiles them.
+    std::set<std::pair<int, int>> strayingBands(const std::set<std::pair<int, int>>& asked,
+                                                const std::set<std::pair<int, int>>& ends, double reach);
     /// The band between two contours as tileSides gives it, over `vertices`: the lower contour's
     /// crossings in world space, then the upper one's (band-local ids).
     static std::vector<Triangle> bandOf(const Contour& lower, const Contour& upper,
@@ -1936,6 +1938,29 @@ bool straysFrom(const Volume& volume, const std::vector<glm::dvec3>& vertices, c
     return glm::distance(p, vertices[t[0]]) > reach * volume.smallestVoxel() && !volume.surfaceWithin(p, reach / 0.88);
 }
 
+// straysFrom, or at points `reach` apart over the triangle, outside the object: a band to an end
+// contour fanned across a bay of its last contour lies farthest off beside the bay, not at the
+// middle of its long sides (a crop of the smoke: 1.15 voxels off, though each triangle's point
+// farthest from its corners was within a voxel), and no flip takes a fan. Inside the object the
+// level's needle passes flip such slivers onto the surface (the crossing tubes sliced along y:
+// end bands 1.16 voxels off as tiled, 0.45 at the top level), so only points outside are asked.
+bool straysAnywhere(const Volume& volume, const std::vector<glm::dvec3>& vertices, const Triangle& t, double reach)
+{
+    if (straysFrom(volume, vertices, t, reach)) return true;
+    const glm::dvec3 &a = vertices[t[0]], &b = vertices[t[1]], &c = vertices[t[2]];
+    const double near = reach * volume.smallestVoxel();
+    const double longest = std::max({glm::distance(a, b), glm::distance(b, c), glm::distance(c, a)});
+    const int n = static_cast<int>(std::ceil(longest / near));
+    for (int i = 0; i <= n; ++i)
+        for (int j = 0; i + j <= n; ++j) {
+            const glm::dvec3 p = a + (b - a) * (double(i) / n) + (c - a) * (double(j) / n);
+            if (std::min({glm::distance(p, a), glm::distance(p, b), glm::distance(p, c)}) > near &&
+                volume.signedField(p) > 0.0 && !volume.surfaceWithin(p, reach / 0.88))
+                return true;
+        }
+    return false;
+}
+
 } // namespace
 
 std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<bool>& asked, double reach)
@@ -1953,6 +1978,7 @@ std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<
 }
 
 std::set<std::pair<int, int>> Reconstruction::Assembly::strayingBands(const std::set<std::pair<int, int>>& asked,
+                                                                      const std::set<std::pair<int, int>>& ends,
                                                                       double reach)
 {
     if (walled.empty()) addWallVertices(); // as build() tiles them
@@ -1962,8 +1988,9 @@ std::set<std::pair<int, int>> Reconstruction::Assembly::strayingBands(const std:
     for (std::size_t i = 1; i < members.size(); ++i) {
         const std::pair<int, int> lower{members[i - 1].slice, members[i - 1].loop};
         if (members[i].startsTube || asked.count(lower) == 0) continue;
+        const auto strays = ends.count(lower) > 0 ? straysAnywhere : straysFrom;
         if (std::any_of(bands[i].begin(), bands[i].end(),
-                        [&](const Triangle& t) { return straysFrom(mVolume, mesh.vertices, t, reach); }))
+                        [&](const Triangle& t) { return strays(mVolume, mesh.vertices, t, reach); }))
             straying.insert(lower);
     }
     return straying;
@@ -2031,7 +2058,14 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
         const double w0 = mPositions[static_cast<std::size_t>(lower)], w1 = mPositions[static_cast<std::size_t>(above)];
         return std::pair<double, double>{std::floor(std::min(w0, w1)), std::ceil(std::max(w0, w1))};
     };
+    // A band from a tube's end contour to the graph's end member lies in no slab of the graph:
+    // where it strays, the end is meshed from its cells (patchEnd) in the second build.
+    std::map<std::pair<int, int>, std::array<int, 3>> endOfBand; // by the band's lower contour
     const auto strayed = [&](const Slab& slab) {
+        if (const auto end = endOfBand.find(slab.lower); end != endOfBand.end()) {
+            straying.ends.insert(end->second);
+            return;
+        }
         if (std::abs(mPositions[slab.above] - mPositions[slab.lower.first]) > kEventThickness) {
             straying.bands.insert(slab.lower);
             slabAbove[slab.lower] = slab.above;
@@ -2039,9 +2073,11 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
             straying.bandRanges.push_back(voxelRange(slab.lower.first, slab.above));
         }
     };
-    // Bands as thin as the events' slabs that may stray: their own contours alone say little
-    // there (see below).
-    std::map<std::pair<int, int>, Slab> thinBands;
+    // Bands that may stray, asked as the top level tiles them: those as thin as the events'
+    // slabs, where their own contours alone say little (see below), and bands to end contours,
+    // whose cells (patchEnd) replace the end's contours and cap (the U-bend sliced along y: its
+    // end band's own contours strayed, the level's band does not).
+    std::map<std::pair<int, int>, Slab> levelBands;
     std::vector<bool> inGraph(mLoops.size(), false);
     for (const int s : mGraph.order) inGraph[static_cast<std::size_t>(s)] = true;
     const auto contourOf = [&](const std::pair<int, int>& loop) -> const Contour& {
@@ -2056,6 +2092,13 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
         std::vector<std::pair<int, int>> kept; // the members the top level keeps
         for (const auto& m : tube.members)
             if (mLoops[m.first][m.second].fromLevel <= top) kept.push_back(m);
+        // Its end contours lie before its first member on the graph and after its last.
+        const auto bottom = tube.members[graphEnd(tube, false)], topmost = tube.members[graphEnd(tube, true)];
+        const std::size_t first = static_cast<std::size_t>(std::find(kept.begin(), kept.end(), bottom) - kept.begin());
+        const std::size_t last = static_cast<std::size_t>(std::find(kept.begin(), kept.end(), topmost) - kept.begin());
+        for (std::size_t k = 0; k < first && first < kept.size(); ++k)
+            endOfBand[kept[k]] = {0, bottom.first, bottom.second};
+        for (std::size_t k = last; k + 1 < kept.size(); ++k) endOfBand[kept[k]] = {1, topmost.first, topmost.second};
         std::size_t from = 0; // the member whose plane begins the graph's slab
         for (std::size_t k = 1; k < kept.size(); ++k) {
             const auto lower = kept[k - 1], upper = kept[k];
@@ -2065,8 +2108,8 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
             const Slab slab{kept[from], kept[to].first};
             const SliceLoop &below = mLoops[lower.first][lower.second], &above = mLoops[upper.first][upper.second];
             const double thickness = std::abs(mPositions[upper.first] - mPositions[lower.first]);
-            if (thickness <= kEventThickness) {
-                if (thickness > 0.0 && shapeMayStray(below, above)) thinBands.emplace(lower, slab);
+            if (thickness <= kEventThickness || endOfBand.count(slab.lower) > 0) {
+                if (thickness > 0.0 && shapeMayStray(below, above)) levelBands.emplace(lower, slab);
                 continue;
             }
             if (!shapeMayStray(below, above)) continue;
@@ -2090,7 +2133,7 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     const bool junctionsAsked = std::find(asked.begin(), asked.end(), true) != asked.end();
     Contours topContours; // the Assembly refers to them
     std::optional<Assembly> topLevel;
-    if (junctionsAsked || !thinBands.empty()) {
+    if (junctionsAsked || !levelBands.empty()) {
         topContours = castLevel(top);
         topLevel.emplace(*this, topContours, top);
     }
@@ -2100,11 +2143,16 @@ Reconstruction::StrayingPieces Reconstruction::strayingPieces() const
     // between the voxel planes around it is meshed from its cells, where that keeps its pieces'
     // count (patchWholeRanges: a crop of the smoke, a band in a slab an eighth of a voxel thick
     // fanned across a bay 1.78 voxels off, its own cells closing with two handles too many). In
-    // part of a thicker slab (splitBand), the slab's piece takes its cells, where they close.
-    if (!thinBands.empty()) {
-        std::set<std::pair<int, int>> thin;
-        for (const auto& [band, slab] : thinBands) thin.insert(band);
-        for (const std::pair<int, int>& band : topLevel->strayingBands(thin, kStray)) strayed(thinBands.at(band));
+    // part of a thicker slab (splitBand), the slab's piece takes its cells, where they close. A
+    // band to an end contour that strays leaves the end to its cells (patchEnd).
+    if (!levelBands.empty()) {
+        std::set<std::pair<int, int>> bands, ends;
+        for (const auto& [band, slab] : levelBands) {
+            bands.insert(band);
+            if (endOfBand.count(slab.lower) > 0) ends.insert(band);
+        }
+        for (const std::pair<int, int>& band : topLevel->strayingBands(bands, ends, kStray))
+            strayed(levelBands.at(band));
     }
     if (junctionsAsked) {
         const std::vector<bool> junctions = topLevel->strayingJunctions(asked, kStray);

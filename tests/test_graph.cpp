@@ -1275,6 +1275,22 @@ TEST(Graph, AStrayingBandInAThinSlabTakesItsRangeBetweenVoxelPlanes)
     expectTopLevelWithinAVoxelAlong(volume, Axis::Z);
 }
 
+// A crop of the smoke at iso 0.1 along y: its first plane, y = 120, holds a contour with a bay
+// about 2.4 pixels wide, and the end contour below it, where only the densest voxels of that plane
+// still show, keeps the part on one side of the bay. The band between them fanned the other side
+// across the bay to the end contour: 1.15 voxels off at the top level, though each triangle's
+// point farthest from its corners lay within a voxel. Asked at points a voxel apart over it, the
+// band strays, and the second build meshes that end from its cells (patchEnd): 0.64.
+TEST(Graph, AnEndBandFannedAcrossABayLeavesTheEndToItsCells)
+{
+    const Volume volume = smokeCrop({2, 120, 52}, {30, 163, 76}, 0.1);
+    MeshOptions options;
+    options.slicing.axis = Axis::Y;
+    const Reconstruction reconstruction(volume, options);
+    EXPECT_GT(reconstruction.stats().endPatches, 0);
+    expectTopLevelWithinAVoxelAlong(volume, Axis::Y);
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,

@@ -226,7 +226,13 @@ private:
         // around them (index space), whose whole range is meshed from its cells where that keeps
         // its pieces' count (patchWholeRanges).
         std::vector<std::pair<double, double>> bandRanges;
-        bool empty() const { return junctions.empty() && bands.empty() && thinJunctions.empty() && bandRanges.empty(); }
+        // Tube ends whose end contours' bands strayed, meshed from their cells (patchEnd): 1 for a
+        // top end, 0 for a bottom one, and the plane and loop of the tube's end member on the graph.
+        std::set<std::array<int, 3>> ends;
+        bool empty() const
+        {
+            return junctions.empty() && bands.empty() && thinJunctions.empty() && bandRanges.empty() && ends.empty();
+        }
     };
     /// The stages below, with the pieces `cellPieces` names meshed from their slab's cells where
     /// those close (resolveEvents).
