@@ -45,6 +45,23 @@ py::array_t<Out> handOver(std::vector<T> vector)
                             reinterpret_cast<const Out*>(owned->data()), free);
 }
 
+// Bytes from the library (a path, a grid's name, a message naming them) as Python's str, the way
+// os.fsdecode makes one: bytes that are no UTF-8 (a Latin-1 file name) become surrogates, which
+// os.fsencode turns back into the same bytes, where pybind11's strict decoding raised.
+py::str text(const std::string& bytes)
+{
+    PyObject* decoded = PyUnicode_DecodeUTF8(bytes.data(), static_cast<Py_ssize_t>(bytes.size()), "surrogateescape");
+    if (!decoded) throw py::error_already_set();
+    return py::reinterpret_steal<py::str>(decoded);
+}
+
+py::list texts(const std::vector<std::string>& bytes)
+{
+    py::list out;
+    for (const std::string& b : bytes) out.append(text(b));
+    return out;
+}
+
 Axis parseAxis(const std::string& axis)
 {
     if (axis == "x") return Axis::X;
@@ -151,7 +168,7 @@ py::tuple meshToFiles(const std::string& input, const std::string& output, const
         const py::gil_scoped_release release;
         meshed = meshFiles(input, output, report, volumeOptions(grid, iso), options);
     }
-    return py::make_tuple(meshed.report, meshed.notes);
+    return py::make_tuple(meshed.report, texts(meshed.notes));
 }
 
 tools::FramePattern framePattern(const std::string& text, const char* what)
@@ -210,9 +227,9 @@ void bindErrors(py::module_& m)
         try {
             if (thrown) std::rethrow_exception(thrown);
         } catch (const UsageError& e) {
-            usageError(withSettings(e, "", "=").c_str());
+            PyErr_SetObject(usageError.ptr(), text(withSettings(e, "", "=")).ptr());
         } catch (const Error& e) {
-            error(withSettings(e, "", "=").c_str());
+            PyErr_SetObject(error.ptr(), text(withSettings(e, "", "=")).ptr());
         }
     });
 }
@@ -229,8 +246,8 @@ PYBIND11_MODULE(_pipetile, m)
     bindErrors(m);
 
     py::class_<Volume>(m, "Volume", "A scalar float grid with its class and isovalue, ready to mesh")
-        .def_property_readonly("source", &Volume::source)
-        .def_property_readonly("grid", &Volume::gridName)
+        .def_property_readonly("source", [](const Volume& v) { return text(v.source()); })
+        .def_property_readonly("grid", [](const Volume& v) { return text(v.gridName()); })
         .def_property_readonly("grid_class", [](const Volume& v) { return toString(v.volumeClass()); })
         .def_property_readonly("iso", &Volume::iso)
         .def_property_readonly("voxel_size", [](const Volume& v) {
@@ -249,11 +266,13 @@ PYBIND11_MODULE(_pipetile, m)
           py::arg("every_slice"), py::arg("threads"), py::arg("tiler"));
     m.def(
         "frame_path",
-        [](const std::string& pattern, int frame) { return framePattern(pattern, "the pattern").path(frame); },
+        [](const std::string& pattern, int frame) { return text(framePattern(pattern, "the pattern").path(frame)); },
         py::arg("pattern"), py::arg("frame"));
     m.def("sequence_frames", &sequenceFrames, py::arg("pattern"), py::arg("range"));
     m.def("outputs_exist", &tools::outputsExist, py::arg("output"), py::arg("report"), py::arg("levels"));
-    m.def("frame_error", &tools::frameError, py::arg("frame"), py::arg("what"));
+    m.def(
+        "frame_error", [](int frame, const std::string& what) { return text(tools::frameError(frame, what)); },
+        py::arg("frame"), py::arg("what"));
     m.def("sequence_report", &sequenceReport, py::arg("input"), py::arg("output"), py::arg("outcomes"),
           py::arg("seconds"));
     m.def("validate", &validate, py::arg("volume"), py::arg("vertices"), py::arg("faces"), py::arg("threads"));

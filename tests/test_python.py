@@ -248,6 +248,37 @@ def test_library_errors_are_pipetile_errors_with_its_messages(tmp_path):
         pipetile.mesh(np.zeros((8, 8, 8)), grid_class="fog")
 
 
+def test_names_that_are_no_utf8_are_taken_and_given_back_as_os_fsdecode_makes_them(tmp_path):
+    """File and grid names are bytes: Latin-1 ones are no UTF-8. pipetile takes them as os.fsencode
+    gives them back (str with surrogates, or bytes) and names them so in its errors; the report, JSON
+    and therefore UTF-8, has U+FFFD for those bytes, as the CLI's has. pybind11's strict decoding
+    refused such a path (TypeError) and could not raise an error naming one."""
+    sphere = vdb.createLevelSetSphere(6.0, voxelSize=1.0)
+    sphere.name = "QQQQ"
+    plain = tmp_path / "plain.vdb"
+    vdb.write(str(plain), grids=[sphere])
+    data = plain.read_bytes()
+    assert data.count(b"QQQQ") >= 1
+    path = os.fsdecode(os.fsencode(tmp_path) + b"/caf\xe9.vdb")
+    Path(path).write_bytes(data.replace(b"QQQQ", b"\xe9QQQ"))  # same length: still a valid file
+    levels = pipetile.mesh(path, levels=1)
+    assert levels.report["grid"] == "\ufffdQQQ"
+    assert levels.report["input"].endswith("caf\ufffd.vdb")
+    subprocess.run([CLI, "mesh", path, "--levels", "1", "-o", tmp_path / "m.ply", "--report", tmp_path / "r.json"],
+                   check=True, capture_output=True)  # its table shows the name's bytes as they are
+    assert json.loads((tmp_path / "r.json").read_text())["grid"] == levels.report["grid"]
+    for name in ("\udce9QQQ", b"\xe9QQQ"):
+        picked = pipetile.mesh(os.fsencode(path), grid=name, levels=1)
+        assert np.array_equal(picked[0].faces, levels[0].faces)
+    with pytest.raises(pipetile.Error, match="no grid named 'QQQQ'") as unknown:
+        pipetile.mesh(path, grid="QQQQ", levels=1)
+    assert "'\udce9QQQ'" in str(unknown.value) and path in str(unknown.value)
+    missing = os.fsdecode(os.fsencode(tmp_path) + b"/gon\xe9.vdb")
+    with pytest.raises(pipetile.Error, match="no such file") as gone:
+        pipetile.mesh(missing)
+    assert missing in str(gone.value)
+
+
 def test_bad_arguments_are_value_errors(phantom):
     density = capsule_density()
     cases = [
@@ -368,14 +399,20 @@ def write_sphere_frames(folder, frames):
 
 def test_dask_local_cluster_writes_the_cli_batch_files(tmp_path):
     """pipetile.dask.mesh_frames on a LocalCluster of 2 worker processes writes the files the CLI's
-    batch writes, byte for byte, and names a damaged frame as the CLI does."""
+    batch writes, byte for byte, and names a damaged frame as the CLI does. In a folder whose name
+    is Latin-1 bytes, no UTF-8: the summaries name it with U+FFFD alike."""
     import faulthandler
 
     from distributed import Client, LocalCluster
 
     import pipetile.dask
 
-    write_sphere_frames(tmp_path, range(1, 6))
+    write_sphere_frames(tmp_path, range(1, 6))  # pyopenvdb takes no such path: moved there after
+    latin1 = Path(os.fsdecode(os.fsencode(tmp_path) + b"/caf\xe9"))
+    latin1.mkdir()
+    for frame in tmp_path.glob("seq.*.vdb"):
+        frame.rename(latin1 / frame.name)
+    tmp_path = latin1
     damaged = tmp_path / "seq.0003.vdb"
     os.truncate(damaged, damaged.stat().st_size // 2)
     (tmp_path / "cli").mkdir()
@@ -383,7 +420,7 @@ def test_dask_local_cluster_writes_the_cli_batch_files(tmp_path):
     pattern = str(tmp_path / "seq.####.vdb")
     cli = subprocess.run([CLI, "mesh", pattern, "-o", tmp_path / "cli/seq.####.ply", "--report",
                           tmp_path / "cli/seq.####.json", "--summary", tmp_path / "summary.json"],
-                         capture_output=True, text=True)
+                         capture_output=True, text=True, errors="surrogateescape")
     assert cli.returncode == 1, cli.stderr
     cli_summary = json.loads((tmp_path / "summary.json").read_text())
 
@@ -399,6 +436,7 @@ def test_dask_local_cluster_writes_the_cli_batch_files(tmp_path):
     assert (summary["frames"], summary["meshed"], summary["failed"]) == (5, 4, 1)
     assert summary["failures"] == cli_summary["failures"]  # the same frame, the same one-line message
     assert summary["failures"][0]["error"].startswith("frame 3: ")
+    assert "caf\ufffd" in summary["failures"][0]["error"] and "caf\ufffd" in summary["input"]
     assert summary["totals"]["triangles"] == cli_summary["totals"]["triangles"]
     meshes = sorted(p.name for p in (tmp_path / "cli").glob("*.ply"))
     assert meshes == sorted(p.name for p in (tmp_path / "dask").iterdir() if p.suffix == ".ply")

@@ -122,9 +122,9 @@ _CLASSES = {"level set": True, "fog": False, "fog volume": False}
 def _volume(source, grid, iso, voxel_size, origin, index_to_world, grid_class):
     placement = {"voxel_size": voxel_size, "origin": origin, "index_to_world": index_to_world,
                  "grid_class": grid_class}
-    if isinstance(source, (str, os.PathLike)):
+    if isinstance(source, (str, bytes, os.PathLike)):
         _refuse(placement, "a .vdb file carries its own transform and class")
-        return _pipetile.read_volume(os.fspath(source), grid or "", iso)
+        return _pipetile.read_volume(os.fsencode(source), _name(grid), iso)
     if type(source).__module__ == "pyopenvdb":
         _refuse(placement, "a pyopenvdb grid carries its own transform and class")
         if grid is not None:
@@ -156,7 +156,13 @@ def _dense_volume(source, grid, iso, voxel_size, origin, index_to_world, grid_cl
                          "distance, negative inside) or 'fog' (density, larger inside)")
     matrix = _index_to_world(voxel_size, origin, index_to_world)
     source_name = "numpy array " + "x".join(str(n) for n in values.shape)
-    return _pipetile.dense_volume(values, matrix, _CLASSES[grid_class], grid or "", iso, source_name)
+    return _pipetile.dense_volume(values, matrix, _CLASSES[grid_class], _name(grid), iso, source_name)
+
+
+def _name(grid):
+    """A grid's name as the library takes it, bytes: a str as os.fsencode makes them, so that a name
+    read back from Volume.grid (bytes that are no UTF-8 kept as surrogates) picks the same grid."""
+    return os.fsencode(grid or "")
 
 
 def _index_to_world(voxel_size, origin, index_to_world):

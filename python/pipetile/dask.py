@@ -41,8 +41,8 @@ def mesh_frames(client, pattern, frames, out_pattern, *, report=None, skip_exist
     numbers = _frames(pattern, frames)
     for text in (out_pattern, report):
         if text is not None:
-            _pipetile.frame_path(text, 0)  # a UsageError unless it holds a frame number
-    options = dict(grid=grid or "", iso=iso, axis=axis, spacing=spacing, rays=rays, levels=levels,
+            _pipetile.frame_path(os.fsencode(text), 0)  # a UsageError unless it holds a frame number
+    options = dict(grid=os.fsencode(grid or ""), iso=iso, axis=axis, spacing=spacing, rays=rays, levels=levels,
                    every_slice=every_slice, tiler=tiler)
     shares = _thread_shares(client) if threads == 0 else None
     run = uuid.uuid4().hex
@@ -50,12 +50,20 @@ def mesh_frames(client, pattern, frames, out_pattern, *, report=None, skip_exist
                            key=f"pipetile-frame-{frame}-{run}")
              for frame in numbers]
     outcomes = client.gather(tasks) if timeout is None else _gather(client, tasks, timeout)
-    return json.loads(_pipetile.sequence_report(pattern, out_pattern, json.dumps(outcomes), time.monotonic() - start))
+    return json.loads(_pipetile.sequence_report(os.fsencode(pattern), os.fsencode(out_pattern), _json(outcomes),
+                                                time.monotonic() - start))
+
+
+def _json(outcomes):
+    """The outcomes as JSON text, which is UTF-8: a path's bytes that are no UTF-8 (kept as
+    surrogates) become U+FFFD, as in the CLI's reports."""
+    text = json.dumps(outcomes, ensure_ascii=False)
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
 
 
 def _frames(pattern, frames):
     if frames is None or isinstance(frames, str):
-        return _pipetile.sequence_frames(pattern, frames or "")
+        return _pipetile.sequence_frames(os.fsencode(pattern), frames or "")
     return [int(f) for f in frames]
 
 
@@ -89,20 +97,20 @@ def _task_threads(threads, shares):
 
 def _mesh_frame(frame, pattern, out_pattern, report, skip_existing, threads, shares, options):
     """One frame on a worker, as the CLI's batch meshes it; a failure is the frame's outcome."""
-    source = _pipetile.frame_path(pattern, frame)
-    output = _pipetile.frame_path(out_pattern, frame)
-    report_path = _pipetile.frame_path(report, frame) if report else ""
+    source = _pipetile.frame_path(os.fsencode(pattern), frame)
+    output = _pipetile.frame_path(os.fsencode(out_pattern), frame)
+    report_path = _pipetile.frame_path(os.fsencode(report), frame) if report else ""
     outcome = {"frame": frame, "input": source}
-    if skip_existing and _pipetile.outputs_exist(output, report_path, options["levels"]):
+    if skip_existing and _pipetile.outputs_exist(os.fsencode(output), os.fsencode(report_path), options["levels"]):
         return dict(outcome, status="skipped")
     try:
-        text, notes = _pipetile.mesh_to_files(source, output, report_path, threads=_task_threads(threads, shares),
-                                              **options)
+        text, notes = _pipetile.mesh_to_files(os.fsencode(source), os.fsencode(output), os.fsencode(report_path),
+                                              threads=_task_threads(threads, shares), **options)
     except Error as e:
-        return dict(outcome, status="failed", error=_pipetile.frame_error(frame, str(e)))
+        return dict(outcome, status="failed", error=_pipetile.frame_error(frame, os.fsencode(str(e))))
     except MemoryError:
         return dict(outcome, status="failed",
-                    error=_pipetile.frame_error(frame, f"out of memory meshing '{source}': lower levels or rays, "
-                                                       "raise spacing, or clip the grid to the object"))
+                    error=_pipetile.frame_error(frame, os.fsencode(f"out of memory meshing '{source}': lower levels "
+                                                                   "or rays, raise spacing, or clip the grid to the object")))
     return dict(outcome, status="meshed", report=json.loads(text), notes=notes)
 
