@@ -411,6 +411,25 @@ SlabLabels labelSlab(const SlabLayers& layers, const SlicePlan& plan, const Pixe
     return slab;
 }
 
+// Whether the labelled slab holds a region, inside or out, that meets neither of its planes and
+// is not the air around everything: a speck or a void wholly between the planes, which no loop
+// shows. Only a slab with a voxel plane strictly inside can: between two voxel planes the field
+// is linear along w, and a region there reaches one of them.
+bool hidesRegion(SlabLabels& slab)
+{
+    if (slab.depth <= 2) return false;
+    const std::size_t layer = static_cast<std::size_t>(slab.width) * static_cast<std::size_t>(slab.height);
+    const std::size_t voxels = layer * static_cast<std::size_t>(slab.depth);
+    std::vector<std::uint8_t> seen(voxels + 1, 0); // by root: meets a plane, or is the air around
+    seen[static_cast<std::size_t>(slab.labels.find(static_cast<std::int32_t>(voxels)))] = 1;
+    for (const std::size_t first : {std::size_t(0), voxels - layer})
+        for (std::size_t v = first; v < first + layer; ++v)
+            seen[static_cast<std::size_t>(slab.labels.find(static_cast<std::int32_t>(v)))] = 1;
+    for (std::size_t v = layer; v < voxels - layer; ++v)
+        if (!seen[static_cast<std::size_t>(slab.labels.find(static_cast<std::int32_t>(v)))]) return true;
+    return false;
+}
+
 // Loops of both planes whose labelling boxes overlap, transitively: each cluster is labelled in
 // its own box, so that far-apart objects in one plane cost their own pixels, not the gap's.
 // Boxes of different clusters are disjoint and each holds every inside region it meets, so no
@@ -484,9 +503,10 @@ PlaneLoops pastTheBox(const Volume& volume, const SlicePlan& plan, bool after)
 
 namespace {
 
-// connectThroughSlab from the slab's labelled voxels alone, with no look for simple bands.
+// connectThroughSlab from the slab's labelled voxels alone, with no look for simple bands. With
+// `hides`, also whether the slab holds a region no plane meets (hidesRegion) where it labels.
 std::vector<SlabPiece> connectByLabels(const Volume& volume, const SlicePlan& plan, const PlaneLoops& below,
-                                       const PlaneLoops& above)
+                                       const PlaneLoops& above, bool* hides = nullptr)
 {
     std::vector<SlabPiece> pieces;
     if (below.loops.empty() && above.loops.empty()) return pieces;
@@ -508,6 +528,9 @@ std::vector<SlabPiece> connectByLabels(const Volume& volume, const SlicePlan& pl
         for (LoopCluster& cluster : clusters) {
             if (cluster.labelled) continue;
             SlabLabels slab = labelSlab(layers, plan, cluster.box, cluster.margin);
+            // A box holds every inside region it meets whole, and the voids inside them: what is
+            // hidden in a smaller box stays hidden in the merged one.
+            if (hides && !*hides) *hides = hidesRegion(slab);
             for (int index : cluster.loops) {
                 const auto [in, out] = pixelsBeside(loopOf(index));
                 const int layer = index < belowCount ? 0 : slab.depth - 1;
@@ -906,6 +929,13 @@ long long EulerProfile::between(double wBelow, double wAbove) const
     return from < to ? std::accumulate(layers.begin() + from, layers.begin() + to, 0LL) : 0LL;
 }
 
+bool EulerProfile::loneOn(double w) const
+{
+    const double k = w - first;
+    return k >= 0.0 && k < static_cast<double>(lone.size()) && k == std::floor(k) &&
+           lone[static_cast<std::size_t>(k)] > 0;
+}
+
 namespace {
 
 int eulerOf(const std::vector<SlabPiece>& pieces)
@@ -984,10 +1014,11 @@ public:
         return connectThroughSlab(mVolume, mPlan, mPlanes[below], mPlanes[above]);
     }
 
-    // The slab's pieces from its labelled voxels, even where it looks like simple bands.
-    std::vector<SlabPiece> label(int below, int above) const
+    // The slab's pieces from its labelled voxels, even where it looks like simple bands; with
+    // `hides`, whether a speck or void lies wholly between its planes (hidesRegion).
+    std::vector<SlabPiece> label(int below, int above, bool* hides = nullptr) const
     {
-        return connectByLabels(mVolume, mPlan, mPlanes[below], mPlanes[above]);
+        return connectByLabels(mVolume, mPlan, mPlanes[below], mPlanes[above], hides);
     }
 
     // Halves the slab while it is thicker than its pieces need; appends the slabs to `out` in
@@ -1144,10 +1175,13 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
                                                          const EulerProfile& cells, int& matches) const
 {
     // The ranges between voxel planes (the cells part the isosurface there only), each with how
-    // far its pieces fall short of the cells'.
+    // far its pieces fall short of the cells', and whether a speck or void lies wholly between
+    // its planes where they agree: the counts can agree by chance (a crop of the smoke: a void of
+    // two voxels and a handle in one slab two voxels thick, a component short with no warning).
     struct Range {
         std::size_t first, end;
         long long target, difference;
+        bool hides = false;
     };
     std::vector<Range> ranges;
     std::size_t first = 0;
@@ -1158,7 +1192,12 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
             long long euler = 0;
             for (std::size_t k = first; k <= s; ++k) euler += eulerOf(slabs[k].pieces);
             const long long target = cells.between(wBelow, w);
-            ranges.push_back({first, s + 1, target, target - euler});
+            // Two voxel planes apart, only lone voxels on the plane between can hide something;
+            // farther apart, a speck may span planes (--spacing over 2), and the slabs are labelled.
+            bool hides = false;
+            if (target == euler && (w - wBelow > 2.0 || (w - wBelow == 2.0 && cells.loneOn(wBelow + 1.0))))
+                for (std::size_t k = first; k <= s && !hides; ++k) label(slabs[k].below, slabs[k].above, &hides);
+            ranges.push_back({first, s + 1, target, target - euler, hides});
         }
         first = s + 1;
     }
@@ -1169,7 +1208,7 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
     // that no plane meets between z = 61 and 63, next to a handle the slabs miss between 60 and
     // 61, one component short), and a cut tells them apart, as it must match the cells.
     for (const Range& range : ranges) {
-        if (range.difference == 0) continue;
+        if (range.difference == 0 && !range.hides) continue;
         std::move(slabs.begin() + copied, slabs.begin() + range.first, std::back_inserter(out));
         copied = range.first;
         // Where the cells disagree, the range's slabs are labelled first: simpleBands pairs loops
@@ -1181,7 +1220,7 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
             slab.pieces = label(slab.below, slab.above);
             euler += eulerOf(slab.pieces);
         }
-        if (euler == range.target) {
+        if (euler == range.target && !range.hides) {
             for (ContourGraph::Slab& slab : labelled) refine(slab.below, slab.above, std::move(slab.pieces), out);
         } else if (!cutRange(labelled, range.target, out)) {
             std::move(labelled.begin(), labelled.end(), slabs.begin() + static_cast<std::ptrdiff_t>(range.first));

@@ -309,9 +309,12 @@ BlockSign blockSign(const openvdb::FloatTree::LeafNodeType& leaf, float iso)
 // belongs to the higher one's layer, and a face to the layer of the cell it is counted at (the
 // other cells around its grid edge lie in that layer or below). So the sum over layers up to k is
 // the Euler characteristic of the mesh's part whose vertices lie in cells below k + 1.
+// Also, per voxel plane, its voxels whose two neighbours along the axis both lie on the other
+// side (what = 3): only where there are some can a speck or void lie wholly between the planes
+// either side of it (EulerProfile::lone).
 struct LayerCounts {
     int axis = 0, first = 0;
-    std::vector<std::array<long long, 3>> layers;
+    std::vector<std::array<long long, 4>> layers;
     void add(int layer, int what, long long count) { layers[static_cast<std::size_t>(layer - first)][what] += count; }
 };
 
@@ -321,6 +324,19 @@ void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb:
                     float iso, LayerCounts& counts)
 {
     const CellBlock cells(accessor, leaf.origin(), iso);
+    for (int x = 0; x < 8; ++x)
+        for (int y = 0; y < 8; ++y) {
+            // Row bit z + 1 is voxel z: along z its neighbours are the bits beside it.
+            const std::uint32_t r = cells.row(x, y);
+            const std::uint32_t before = counts.axis == 0   ? cells.row(x - 1, y)
+                                         : counts.axis == 1 ? cells.row(x, y - 1)
+                                                            : r << 1;
+            const std::uint32_t after = counts.axis == 0   ? cells.row(x + 1, y)
+                                        : counts.axis == 1 ? cells.row(x, y + 1)
+                                                           : r >> 1;
+            for (std::uint32_t lone = ((r ^ before) & (r ^ after)) >> 1 & 0xFF; lone != 0; lone &= lone - 1)
+                counts.add((leaf.origin() + openvdb::Coord(x, y, __builtin_ctz(lone)))[counts.axis], 3, 1);
+        }
     for (int x = -1; x < 8; ++x)
         for (int y = -1; y < 8; ++y) {
             // The cells of this row along z whose corners are not all on one side.
@@ -391,7 +407,7 @@ EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis)
     EulerProfile profile;
     if (crossed.empty()) return profile;
     // A leaf's cells lie at its origin - 1 .. + 7; an edge counted there may belong to + 8.
-    LayerCounts zero{axis, lo - 1, std::vector<std::array<long long, 3>>(static_cast<std::size_t>(hi - lo + 10))};
+    LayerCounts zero{axis, lo - 1, std::vector<std::array<long long, 4>>(static_cast<std::size_t>(hi - lo + 10))};
     // Summed over the leaves in parallel (an accessor per task: they are not shared).
     const LayerCounts counts = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, crossed.size()), zero,
@@ -402,11 +418,14 @@ EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis)
         },
         [](LayerCounts a, const LayerCounts& b) {
             for (std::size_t k = 0; k < a.layers.size(); ++k)
-                for (int what = 0; what < 3; ++what) a.layers[k][what] += b.layers[k][what];
+                for (int what = 0; what < 4; ++what) a.layers[k][what] += b.layers[k][what];
             return a;
         });
     profile.first = counts.first;
-    for (const auto& [vertices, edges, faces] : counts.layers) profile.layers.push_back(vertices - edges + faces);
+    for (const auto& [vertices, edges, faces, lone] : counts.layers) {
+        profile.layers.push_back(vertices - edges + faces);
+        profile.lone.push_back(lone);
+    }
     return profile;
 }
 

@@ -135,8 +135,13 @@ struct ContourGraph {
 struct EulerProfile {
     int first = 0;
     std::vector<long long> layers;
+    /// Per voxel plane first + k: its voxels whose two neighbours along the axis both lie on the
+    /// other side of the isosurface. A speck or void lying wholly between two voxel planes two
+    /// apart is made of such voxels on the plane between.
+    std::vector<long long> lone;
     long long total() const;
     long long between(double wBelow, double wAbove) const; // the layers whose origin is in [wBelow, wAbove)
+    bool loneOn(double w) const;                           // whether voxel plane w has lone voxels
 };
 
 /// How far a band's two contours differ in shape, each seen from its own central point: the
