@@ -109,8 +109,8 @@ def _mesh_frame(frame, pattern, out_pattern, report, skip_existing, threads, sha
     except Error as e:
         return dict(outcome, status="failed", error=_pipetile.frame_error(frame, os.fsencode(str(e))))
     except MemoryError:
-        return dict(outcome, status="failed",
-                    error=_pipetile.frame_error(frame, os.fsencode(f"out of memory meshing '{source}': lower levels "
-                                                                   "or rays, raise spacing, or clip the grid to the object")))
+        message = (f"out of memory meshing '{source}': lower levels or rays, raise spacing, or clip the grid "
+                   "to the object")
+        return dict(outcome, status="failed", error=_pipetile.frame_error(frame, os.fsencode(message)))
     return dict(outcome, status="meshed", report=json.loads(text), notes=notes)
 
