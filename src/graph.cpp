@@ -990,6 +990,31 @@ LoopGroups loopGroups(const std::vector<ContourGraph::Slab>& slabs, const std::v
     return groups;
 }
 
+// The runs of slabs (in order of w) from one voxel plane to the next, as [first, end) into
+// `slabs`: the cells part the isosurface at voxel planes only, so their count is compared there.
+// Slabs after a plane between voxel planes, up to the next voxel plane, are in no run.
+std::vector<std::pair<std::size_t, std::size_t>> voxelLayerRuns(const std::vector<ContourGraph::Slab>& slabs,
+                                                                const std::vector<PlaneLoops>& planes)
+{
+    std::vector<std::pair<std::size_t, std::size_t>> runs;
+    std::size_t first = 0;
+    for (std::size_t s = 0; s < slabs.size(); ++s) {
+        const double below = planes[slabs[first].below].w, above = planes[slabs[s].above].w;
+        if (above != std::floor(above)) continue;
+        if (below == std::floor(below)) runs.emplace_back(first, s + 1);
+        first = s + 1;
+    }
+    return runs;
+}
+
+// The pieces' Euler characteristics summed over slabs [first, end).
+long long eulerOf(const std::vector<ContourGraph::Slab>& slabs, std::size_t first, std::size_t end)
+{
+    long long euler = 0;
+    for (std::size_t k = first; k < end; ++k) euler += eulerOf(slabs[k].pieces);
+    return euler;
+}
+
 // The stages of buildContourGraph: each slab halved while its events need it (refine), then the
 // ranges between voxel planes whose pieces do not add up to the cells' cut again (matchCells).
 class GraphBuilder {
@@ -1138,8 +1163,7 @@ bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long l
     for (const ContourGraph::Slab& slab : range) stack.emplace(mPlanes[slab.above].w, slab.above);
     const double wBelow = stack.begin()->first, wAbove = stack.rbegin()->first;
     const LoopGroups groups = loopGroups(range, mPlanes);
-    long long uncut = 0; // the range's pieces' count as it came
-    for (const ContourGraph::Slab& slab : range) uncut += eulerOf(slab.pieces);
+    const long long uncut = eulerOf(range, 0, range.size()); // the range's pieces' count as it came
     std::vector<ContourGraph::Slab> matched;
     int added = 0, addedWhenMatched = 0;
     for (double step = 0.5 * (wAbove - wBelow); step >= mMinThickness / 8.0; step *= 0.5) {
@@ -1164,19 +1188,9 @@ bool GraphBuilder::cutRange(const std::vector<ContourGraph::Slab>& range, long l
         // take them (Reconstruction, missed handles). A crop of the smoke: cut at x = 36, a range
         // found two specks, +4 where the cells count +2, and a handle inside the layer 35 to 36.
         bool handlesOnly = uncut < target && euler > target && step <= 1.0;
-        for (std::size_t k = 0; k < cut.size() && handlesOnly;) {
-            const double from = mPlanes[cut[k].below].w;
-            long long layer = 0;
-            std::size_t next = k;
-            for (; next < cut.size(); ++next) {
-                layer += eulerOf(cut[next].pieces);
-                const double to = mPlanes[cut[next].above].w;
-                if (to == std::floor(to)) break;
-            }
-            const double to = mPlanes[cut[std::min(next, cut.size() - 1)].above].w;
-            handlesOnly = from == std::floor(from) && to == std::floor(to) && layer >= cells.between(from, to);
-            k = next + 1;
-        }
+        for (const auto& [first, end] : voxelLayerRuns(cut, mPlanes))
+            handlesOnly = handlesOnly && eulerOf(cut, first, end) >=
+                                             cells.between(mPlanes[cut[first].below].w, mPlanes[cut[end - 1].above].w);
         if ((euler == target || handlesOnly) && joinsAsBefore) {
             matched = std::move(cut);
             addedWhenMatched = added;
@@ -1203,25 +1217,21 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
     struct Range {
         std::size_t first, end;
         long long target, difference;
-        bool hides = false;
+        std::vector<std::vector<SlabPiece>> labelled; // per slab, where it hides a region
     };
     std::vector<Range> ranges;
-    std::size_t first = 0;
-    for (std::size_t s = 0; s < slabs.size(); ++s) {
-        const double wBelow = mPlanes[slabs[first].below].w, w = mPlanes[slabs[s].above].w;
-        if (w != std::floor(w)) continue;
-        if (wBelow == std::floor(wBelow)) {
-            long long euler = 0;
-            for (std::size_t k = first; k <= s; ++k) euler += eulerOf(slabs[k].pieces);
-            const long long target = cells.between(wBelow, w);
-            // Two voxel planes apart, only lone voxels on the plane between can hide something;
-            // farther apart, a speck may span planes (--spacing over 2), and the slabs are labelled.
-            bool hides = false;
-            if (target == euler && (w - wBelow > 2.0 || (w - wBelow == 2.0 && cells.loneOn(wBelow + 1.0))))
-                for (std::size_t k = first; k <= s && !hides; ++k) label(slabs[k].below, slabs[k].above, &hides);
-            ranges.push_back({first, s + 1, target, target - euler, hides});
-        }
-        first = s + 1;
+    for (const auto& [first, end] : voxelLayerRuns(slabs, mPlanes)) {
+        const double wBelow = mPlanes[slabs[first].below].w, w = mPlanes[slabs[end - 1].above].w;
+        const long long euler = eulerOf(slabs, first, end), target = cells.between(wBelow, w);
+        // Two voxel planes apart, only lone voxels on the plane between can hide something;
+        // farther apart, a speck may span planes (--spacing over 2), and the slabs are labelled.
+        std::vector<std::vector<SlabPiece>> labelled;
+        bool hides = false;
+        if (target == euler && (w - wBelow > 2.0 || (w - wBelow == 2.0 && cells.loneOn(wBelow + 1.0))))
+            for (std::size_t k = first; k < end; ++k)
+                labelled.push_back(label(slabs[k].below, slabs[k].above, hides ? nullptr : &hides));
+        if (!hides) labelled.clear();
+        ranges.push_back({first, end, target, target - euler, std::move(labelled)});
     }
     std::vector<ContourGraph::Slab> out;
     std::size_t copied = 0;
@@ -1229,20 +1239,18 @@ std::vector<ContourGraph::Slab> GraphBuilder::matchCells(std::vector<ContourGrap
     // place on either side of a voxel plane, or two of their own (a crop of the smoke: a speck
     // that no plane meets between z = 61 and 63, next to a handle the slabs miss between 60 and
     // 61, one component short), and a cut tells them apart, as it must match the cells.
-    for (const Range& range : ranges) {
-        if (range.difference == 0 && !range.hides) continue;
+    for (Range& range : ranges) {
+        const bool hides = !range.labelled.empty();
+        if (range.difference == 0 && !hides) continue;
         std::move(slabs.begin() + copied, slabs.begin() + range.first, std::back_inserter(out));
         copied = range.first;
         // Where the cells disagree, the range's slabs are labelled first: simpleBands pairs loops
         // by overlap, and a loop that ends inside a slab two voxels thick beside one that starts
         // there passes for a band (a crop of the smoke: a handle more, a component fewer).
         std::vector<ContourGraph::Slab> labelled(slabs.begin() + range.first, slabs.begin() + range.end);
-        long long euler = 0;
-        for (ContourGraph::Slab& slab : labelled) {
-            slab.pieces = label(slab.below, slab.above);
-            euler += eulerOf(slab.pieces);
-        }
-        if (euler == range.target && !range.hides) {
+        for (std::size_t k = 0; k < labelled.size(); ++k)
+            labelled[k].pieces = hides ? std::move(range.labelled[k]) : label(labelled[k].below, labelled[k].above);
+        if (eulerOf(labelled, 0, labelled.size()) == range.target && !hides) {
             for (ContourGraph::Slab& slab : labelled) refine(slab.below, slab.above, std::move(slab.pieces), out);
         } else if (!cutRange(labelled, range.target, cells, out)) {
             std::move(labelled.begin(), labelled.end(), slabs.begin() + static_cast<std::ptrdiff_t>(range.first));

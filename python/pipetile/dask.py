@@ -38,10 +38,13 @@ def mesh_frames(client, pattern, frames, out_pattern, *, report=None, skip_exist
     tasks (None: no limit). The other options are ``pipetile.mesh``'s.
     """
     start = time.monotonic()
+    # Paths go to the module as bytes: a name that is no UTF-8 (os.fsdecode's surrogates) stays.
+    pattern, out_pattern = os.fsencode(pattern), os.fsencode(out_pattern)
+    report = os.fsencode(report) if report else b""
     numbers = _frames(pattern, frames)
     for text in (out_pattern, report):
-        if text is not None:
-            _pipetile.frame_path(os.fsencode(text), 0)  # a UsageError unless it holds a frame number
+        if text:
+            _pipetile.frame_path(text, 0)  # a UsageError unless it holds a frame number
     options = dict(grid=os.fsencode(grid or ""), iso=iso, axis=axis, spacing=spacing, rays=rays, levels=levels,
                    every_slice=every_slice, tiler=tiler)
     shares = _thread_shares(client) if threads == 0 else None
@@ -50,8 +53,7 @@ def mesh_frames(client, pattern, frames, out_pattern, *, report=None, skip_exist
                            key=f"pipetile-frame-{frame}-{run}")
              for frame in numbers]
     outcomes = client.gather(tasks) if timeout is None else _gather(client, tasks, timeout)
-    return json.loads(_pipetile.sequence_report(os.fsencode(pattern), os.fsencode(out_pattern), _json(outcomes),
-                                                time.monotonic() - start))
+    return json.loads(_pipetile.sequence_report(pattern, out_pattern, _json(outcomes), time.monotonic() - start))
 
 
 def _json(outcomes):
@@ -63,7 +65,7 @@ def _json(outcomes):
 
 def _frames(pattern, frames):
     if frames is None or isinstance(frames, str):
-        return _pipetile.sequence_frames(os.fsencode(pattern), frames or "")
+        return _pipetile.sequence_frames(pattern, frames or "")
     return [int(f) for f in frames]
 
 
@@ -97,15 +99,13 @@ def _task_threads(threads, shares):
 
 def _mesh_frame(frame, pattern, out_pattern, report, skip_existing, threads, shares, options):
     """One frame on a worker, as the CLI's batch meshes it; a failure is the frame's outcome."""
-    source = _pipetile.frame_path(os.fsencode(pattern), frame)
-    output = _pipetile.frame_path(os.fsencode(out_pattern), frame)
-    report_path = _pipetile.frame_path(os.fsencode(report), frame) if report else ""
+    source, output, report_path = (_pipetile.frame_path(p, frame) if p else "" for p in (pattern, out_pattern, report))
     outcome = {"frame": frame, "input": source}
-    if skip_existing and _pipetile.outputs_exist(os.fsencode(output), os.fsencode(report_path), options["levels"]):
+    paths = [os.fsencode(p) for p in (source, output, report_path)]
+    if skip_existing and _pipetile.outputs_exist(*paths[1:], options["levels"]):
         return dict(outcome, status="skipped")
     try:
-        text, notes = _pipetile.mesh_to_files(os.fsencode(source), os.fsencode(output), os.fsencode(report_path),
-                                              threads=_task_threads(threads, shares), **options)
+        text, notes = _pipetile.mesh_to_files(*paths, threads=_task_threads(threads, shares), **options)
     except Error as e:
         return dict(outcome, status="failed", error=_pipetile.frame_error(frame, os.fsencode(str(e))))
     except MemoryError:
