@@ -14,12 +14,14 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace pipetile {
 
@@ -377,6 +379,88 @@ void countLeafCells(const openvdb::FloatTree::LeafNodeType& leaf, const openvdb:
 }
 
 } // namespace
+
+namespace {
+
+// Whether the region of voxels on `seed`'s side of the isovalue, 6-connected, stays within the voxel
+// layers strictly between the planes `below` and `above` (index w along `axis`): none of its
+// voxels has a neighbour on its side on or past either plane, through which a plane would meet it,
+// nor outside `box` (the active box grown by a voxel: past it lies the air around the object, no
+// void). Also true past kMostVoxels voxels (a caller then looks closer rather than trusting a guess).
+bool confinedBetween(const openvdb::FloatGrid::ConstAccessor& accessor, const openvdb::Coord& seed, float iso, int axis,
+                     double below, double above, const openvdb::CoordBBox& box)
+{
+    constexpr std::size_t kMostVoxels = std::size_t(1) << 16;
+    const bool side = vtm::isInsideValue(accessor.getValue(seed), iso);
+    std::vector<openvdb::Coord> stack{seed};
+    std::unordered_set<openvdb::Coord> seen{seed};
+    while (!stack.empty()) {
+        const openvdb::Coord c = stack.back();
+        stack.pop_back();
+        for (int n = 0; n < 6; ++n) {
+            openvdb::Coord q = c;
+            q[n / 2] += n % 2 == 0 ? 1 : -1;
+            if (vtm::isInsideValue(accessor.getValue(q), iso) != side) continue;
+            if (q[axis] <= below || q[axis] >= above) return false; // two voxels on one side across a plane
+            if (!box.isInside(q)) return false;                     // the air around the object
+            if (!seen.insert(q).second) continue;
+            if (seen.size() > kMostVoxels) return true;
+            stack.push_back(q);
+        }
+    }
+    return true;
+}
+
+} // namespace
+
+bool regionBetweenPlanes(const Volume& volume, int axis, const std::vector<double>& planes)
+{
+    // Voxels outside the leaves lie in tiles, 8 voxels or more across, which planes up to 8 voxels
+    // apart always meet; farther apart, a region of tiles could lie between them.
+    constexpr double kTile = 8.0;
+    for (std::size_t k = 1; k < planes.size(); ++k)
+        if (planes[k] - planes[k - 1] > kTile) return true;
+    const openvdb::FloatGrid& grid = gridOf(volume);
+    const float iso = static_cast<float>(volume.iso());
+    const glm::ivec3 lo = volume.bboxMin() - 1, hi = volume.bboxMax() + 1;
+    const openvdb::CoordBBox box(openvdb::Coord(lo.x, lo.y, lo.z), openvdb::Coord(hi.x, hi.y, hi.z));
+    std::vector<const openvdb::FloatTree::LeafNodeType*> leaves;
+    for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) leaves.push_back(&*leaf);
+    const unsigned shift = 3u * static_cast<unsigned>(2 - axis); // a leaf's offset: x << 6 | y << 3 | z
+    std::atomic<bool> found{false};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+        const openvdb::FloatGrid::ConstAccessor accessor = grid.getConstAccessor();
+        const auto sideOf = [&](const openvdb::Coord& ijk) { return vtm::isInsideValue(accessor.getValue(ijk), iso); };
+        for (std::size_t i = r.begin(); i != r.end() && !found.load(std::memory_order_relaxed); ++i) {
+            const float* values = leaves[i]->buffer().data();
+            for (openvdb::Index n = 0; n < openvdb::FloatTree::LeafNodeType::SIZE && !found; ++n) {
+                const bool side = vtm::isInsideValue(values[n], iso);
+                // Not where a run along the axis starts: the voxel before is on the same side (in
+                // this leaf, a stride of 64, 8 or 1 back along x, y, z).
+                const bool first = ((n >> shift) & 7u) == 0;
+                if (!first && vtm::isInsideValue(values[n - (1u << shift)], iso) == side) continue;
+                const openvdb::Coord ijk = leaves[i]->offsetToGlobalCoord(n);
+                openvdb::Coord step = ijk;
+                step[axis] -= 1;
+                if (first && sideOf(step) == side) continue;
+                const auto next = std::lower_bound(planes.begin(), planes.end(), static_cast<double>(ijk[axis]));
+                const double above = next == planes.end() ? std::numeric_limits<double>::infinity() : *next;
+                if (above == ijk[axis]) continue; // on a plane
+                // Most runs reach the next plane on their side (a tube's wall), or the air past the
+                // box: met.
+                const double end = std::min(above, static_cast<double>(hi[axis]));
+                step = ijk;
+                while (step[axis] + 1 < end && sideOf(step.offsetBy(axis == 0, axis == 1, axis == 2)) == side)
+                    step[axis] += 1;
+                step[axis] += 1;
+                if (step[axis] >= end && sideOf(step) == side) continue;
+                const double below = next == planes.begin() ? -std::numeric_limits<double>::infinity() : *(next - 1);
+                if (confinedBetween(accessor, ijk, iso, axis, below, above, box)) found = true;
+            }
+        }
+    });
+    return found;
+}
 
 EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis)
 {

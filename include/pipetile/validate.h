@@ -134,6 +134,14 @@ long long isosurfaceEuler(const Volume& volume);
 /// handle lies, and buildContourGraph adds planes there.
 EulerProfile isosurfaceEulerProfile(const Volume& volume, int axis);
 
+/// Whether a region on one side of the isovalue (a speck, or a void: voxels as volumeToMesh sees
+/// them, 6-connected) could lie wholly between two of `planes` (index w along the index axis
+/// `axis`, increasing), or beyond the first or the last, where no plane meets it and no slab's
+/// pieces show it; the cells then tell (buildContourGraph). False guarantees that none does. A
+/// fraction of the cells' time: a look at each voxel of the leaves, a walk along the runs that
+/// start between planes, and a search around those that end before the next.
+bool regionBetweenPlanes(const Volume& volume, int axis, const std::vector<double>& planes);
+
 /// Where the contour graph's Euler characteristic parts from the isosurface's: both summed from
 /// below up to each voxel plane of the graph (the graph's from its pieces, the isosurface's from
 /// `profile`, along the graph's axis), and past the last plane. Each change of their difference
