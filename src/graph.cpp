@@ -1289,10 +1289,11 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
     }
     // The cells are compared where the graph holds a junction, or where the surface starts more
     // than once (several objects, or specks beside one) or a speck or void could lie between two
-    // planes (a run of inside voxels that no plane meets: a speck there is a start and an end no
-    // plane shows; a crop of the smoke, one tube and a speck between x = 57 and 59, a component
-    // short), and the planes cover the box (the profile holds every voxel layer of it: spheres 2e9
-    // voxels apart would need 48 GB); a single smooth tube would pay most of its time for them.
+    // planes (a region on either side of the isovalue that no plane meets, regionBetweenPlanes: a
+    // speck there is a start and an end no plane shows; a crop of the smoke, one tube and a speck
+    // between x = 57 and 59, a component short), and the planes cover the box (the profile holds
+    // every voxel layer of it: spheres 2e9 voxels apart would need 48 GB); a single smooth tube
+    // would pay most of its time for them.
     const double layers = static_cast<double>(volume.bboxMax()[plan.axis]) - volume.bboxMin()[plan.axis] + 1.0;
     const bool covered = layers <= 64.0 * original;
     long long starts = static_cast<long long>(graph.beforeFirst.size());
@@ -1303,7 +1304,7 @@ ContourGraph buildContourGraph(const Volume& volume, const SlicePlan& plan, std:
             junctions =
                 junctions || (p.kind != EventKind::Band && p.kind != EventKind::Start && p.kind != EventKind::End);
         }
-    if (cells && (junctions || ((starts > 1 || regionBetweenPlanes(volume, plan.axis, plan.positions)) && covered))) {
+    if (cells && (junctions || (covered && (starts > 1 || regionBetweenPlanes(volume, plan.axis, plan.positions))))) {
         const EulerProfile profile = cells();
         // Where the spacing stops short of the box's end, the voxel layers past the last plane can
         // hold what no plane meets (specks: five in a crop of the smoke), and the cells count it
