@@ -40,10 +40,10 @@ def mesh_frames(client, pattern, frames, out_pattern, *, report=None, skip_exist
     start = time.monotonic()
     # Paths go to the module as bytes: a name that is no UTF-8 (os.fsdecode's surrogates) stays.
     pattern, out_pattern = os.fsencode(pattern), os.fsencode(out_pattern)
-    report = os.fsencode(report) if report else b""
+    report = None if report is None else os.fsencode(report)
     numbers = _frames(pattern, frames)
     for text in (out_pattern, report):
-        if text:
+        if text is not None:
             _pipetile.frame_path(text, 0)  # a UsageError unless it holds a frame number
     options = dict(grid=os.fsencode(grid or ""), iso=iso, axis=axis, spacing=spacing, rays=rays, levels=levels,
                    every_slice=every_slice, tiler=tiler)
