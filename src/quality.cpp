@@ -919,10 +919,13 @@ double sharpestCrease(const TriangleMesh& mesh, const std::vector<Triangle>& tri
 }
 
 // The farthest a point of `after`'s triangles (on a grid of a quarter of each edge) lies from
-// `before`'s, and `gone` from `after`'s: how far retriangulating a vertex's fan moves the surface.
-double holeMove(const glm::dvec3& gone, const std::vector<Corners>& before, const std::vector<Corners>& after)
+// `before`'s, and a vertex that goes (`gone`) from `after`'s: how far tiling a fan's polygon anew
+// moves the surface.
+double holeMove(const std::vector<glm::dvec3>& gone, const std::vector<Corners>& before,
+                const std::vector<Corners>& after)
 {
-    double move = fanDistance(gone, after);
+    double move = 0.0;
+    for (const glm::dvec3& q : gone) move = std::max(move, fanDistance(q, after));
     constexpr int kSteps = 4;
     for (const Corners& t : after)
         for (int i = 0; i <= kSteps; ++i)
@@ -933,66 +936,96 @@ double holeMove(const glm::dvec3& gone, const std::vector<Corners>& before, cons
     return move;
 }
 
-// Removes sets of vertices and tiles the polygon around each set anew (removeNeedleCorners).
-class CornerRemover {
+// Tiles anew the polygon around a fan of triangles: the whole fans of a set of vertices, which go
+// (removeNeedleCorners), or part of one vertex's fan, whose vertices all stay (retileNeedleFans).
+class FanRetiler {
 public:
-    CornerRemover(TriangleMesh& mesh, const std::vector<std::uint32_t>& corners, double reach)
+    // `watched`: the vertices whose fans may be tiled anew.
+    FanRetiler(TriangleMesh& mesh, const std::vector<std::uint32_t>& watched, double reach,
+               const SurfaceBound& bound = {})
         : mMesh(mesh),
           mReach(reach),
+          mBound(bound),
           mAround(mesh.vertices.size()),
           mGone(mesh.triangles.size(), false),
           mInto(mesh.vertices.size())
     {
-        // The triangles around the corners and around their neighbours (a ring's diagonals are
-        // checked against its vertices' triangles); a removal only joins such vertices.
-        std::vector<bool> watched(mesh.vertices.size(), false);
-        for (const std::uint32_t v : corners) watched[v] = true;
+        // The triangles around the watched vertices and around their neighbours (a ring's
+        // diagonals are checked against its vertices' triangles); a new tiling only joins such
+        // vertices.
+        std::vector<bool> near(mesh.vertices.size(), false);
+        for (const std::uint32_t v : watched) near[v] = true;
         for (const Triangle& t : mesh.triangles)
-            if (watched[t[0]] || watched[t[1]] || watched[t[2]])
+            if (near[t[0]] || near[t[1]] || near[t[2]])
                 for (const std::uint32_t v : t) mAround[v];
         for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
             for (const std::uint32_t v : mesh.triangles[f]) mAround.offer(v, f);
         for (std::uint32_t v = 0; v < mInto.size(); ++v) mInto[v] = v;
     }
 
+    bool gone(std::uint32_t f) const { return mGone[f]; }
+
     // Removes `set` where that takes a needle away: see removeNeedleCorners.
     bool tryRemove(const std::vector<std::uint32_t>& set)
     {
         if (std::any_of(set.begin(), set.end(), [&](std::uint32_t v) { return mInto[v] != v; })) return false;
-        const std::vector<glm::dvec3>& p = mMesh.vertices;
         if (!gatherRing(set)) return false;
-        double worstBefore = 0.0;
-        std::vector<Corners> before;
-        for (const std::uint32_t f : mFan) {
-            const Triangle& t = mMesh.triangles[f];
-            before.push_back({p[t[0]], p[t[1]], p[t[2]]});
-            worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
-        }
-        if (!(worstBefore > kLargestAspect)) return false;
+        std::vector<glm::dvec3> goneAt;
+        for (const std::uint32_t v : set) goneAt.push_back(mMesh.vertices[v]);
         double worst = 0.0;
-        const std::vector<Triangle> tiles = tileHole(p, mRing, mWedge, joinedOutside(set), worst);
-        if (tiles.empty() || !(worst < worstBefore) ||
-            std::any_of(tiles.begin(), tiles.end(), [&](const Triangle& t) { return outsideHas(t); }))
-            return false;
-        std::vector<Corners> after;
-        for (const Triangle& t : tiles) after.push_back({p[t[0]], p[t[1]], p[t[2]]});
-        for (const std::uint32_t v : set)
-            if (holeMove(p[v], before, after) > mReach) return false;
-        // No crease past a right angle, unless the fan had one already (a tendril's tip, whose
-        // sides meet at a knife's edge whichever way it is tiled).
-        std::vector<Triangle> old;
-        for (const std::uint32_t f : mFan) old.push_back(mMesh.triangles[f]);
-        if (sharpestCrease(mMesh, tiles, mOutside) < 0.0 && !(sharpestCrease(mMesh, old, mOutside) < 0.0)) return false;
-
-        for (const std::uint32_t f : mFan) mGone[f] = true;
-        for (const Triangle& t : tiles) {
-            const std::uint32_t f = static_cast<std::uint32_t>(mMesh.triangles.size());
-            mMesh.triangles.push_back(t);
-            mGone.push_back(false);
-            for (const std::uint32_t v : t) mAround.offer(v, f);
-        }
+        const std::vector<Triangle> tiles = tileByShape(worst);
+        if (!keepsSurface(goneAt, tiles)) return false;
+        commit(tiles);
         for (const std::uint32_t v : set) mInto[v] = kNoVertex;
         return true;
+    }
+
+    // Tiles anew the part of a corner's fan around `needle` (see retileNeedleFans) that leaves the
+    // smallest largest aspect ratio, the fewest triangles on a tie. The parts are ranked by their
+    // tilings first; only then is the surface measured, from the best down until one keeps it.
+    bool tryRetileAround(std::uint32_t needle)
+    {
+        // Parts of up to 25 triangles, 12 either side of the needle: a needle's corner fanned
+        // across a slab to a contour a vertex per pixel (the phantom sliced along y: 10 needles
+        // over 100 from one vertex at level 1) needs the fan's triangles on the other contour too.
+        static constexpr int kSides[] = {0, 1, 2, 3, 4, 6, 8, 12};
+        struct Part {
+            double worst;
+            std::size_t size;
+            std::uint32_t corner;
+            int before, after;
+        };
+        std::vector<Part> parts;
+        const Triangle corners = mMesh.triangles[needle];
+        std::vector<std::vector<std::uint32_t>> fans;
+        for (const std::uint32_t v : corners) {
+            fans.push_back(fanFrom(v, needle));
+            const int size = static_cast<int>(fans.back().size());
+            for (const int before : kSides)
+                for (const int after : kSides) {
+                    // One triangle stays, so v stays on the polygon and is no corner inside it.
+                    if (before + after + 2 > size) continue;
+                    gatherPart(v, fans.back(), before, after);
+                    double worst = 0.0;
+                    const std::vector<Triangle> tiles = tileByShape(worst);
+                    if (!tiles.empty()) parts.push_back({worst, tiles.size(), v, before, after});
+                }
+        }
+        std::stable_sort(parts.begin(), parts.end(), [](const Part& x, const Part& y) {
+            return x.worst != y.worst ? x.worst < y.worst : x.size < y.size;
+        });
+        for (const Part& part : parts) {
+            const std::size_t k =
+                static_cast<std::size_t>(std::find(corners.begin(), corners.end(), part.corner) - corners.begin());
+            gatherPart(part.corner, fans[k], part.before, part.after);
+            double worst = 0.0;
+            const std::vector<Triangle> tiles = tileByShape(worst);
+            if (keepsSurface({}, tiles)) {
+                commit(tiles);
+                return true;
+            }
+        }
+        return false;
     }
 
     // Drops the removed vertices and triangles; the others keep their order.
@@ -1035,6 +1068,105 @@ private:
         return mRing.size() == next.size() && mRing.size() >= 3;
     }
 
+    // v's triangles in the order they run around it, from `first`; empty unless they make a disk.
+    std::vector<std::uint32_t> fanFrom(std::uint32_t v, std::uint32_t first)
+    {
+        std::map<std::uint32_t, std::uint32_t> from; // a -> the triangle (v, a, b)
+        for (const std::uint32_t f : mAround[v])
+            if (!mGone[f] && holds(mMesh.triangles[f], v) &&
+                !from.emplace(mMesh.triangles[f][(cornerOf(mMesh.triangles[f], v) + 1) % 3], f).second)
+                return {};
+        std::vector<std::uint32_t> fan{first};
+        for (;;) {
+            const Triangle& t = mMesh.triangles[fan.back()];
+            const auto step = from.find(t[(cornerOf(t, v) + 2) % 3]);
+            if (step == from.end() || fan.size() > from.size()) return {};
+            if (step->second == first) break;
+            fan.push_back(step->second);
+        }
+        return fan.size() == from.size() ? fan : std::vector<std::uint32_t>{};
+    }
+
+    static int cornerOf(const Triangle& t, std::uint32_t v) { return t[0] == v ? 0 : t[1] == v ? 1 : 2; }
+
+    // The part of v's fan (from fanFrom) from `before` triangles ahead of the needle (fan[0]) to
+    // `after` past it, as mFan, and its polygon: v, then the fan's far corners in order.
+    void gatherPart(std::uint32_t v, const std::vector<std::uint32_t>& fan, int before, int after)
+    {
+        mFan.clear();
+        mRing.assign(1, v);
+        mWedge.clear();
+        const int size = static_cast<int>(fan.size());
+        for (int k = -before; k <= after; ++k) mFan.push_back(fan[static_cast<std::size_t>((k + size) % size)]);
+        for (const std::uint32_t f : mFan) {
+            const Triangle& t = mMesh.triangles[f];
+            const int c = cornerOf(t, v);
+            if (mRing.size() == 1) {
+                mRing.push_back(t[(c + 1) % 3]);
+                mWedge.push_back(faceNormal(mMesh, t)); // v to the first far corner
+            }
+            mRing.push_back(t[(c + 2) % 3]);
+            mWedge.push_back(faceNormal(mMesh, t));
+        }
+        mWedge.push_back(mWedge.back()); // the last far corner back to v
+    }
+
+    // The tiling of the polygon around mFan (tileHole) where it lowers the fan's worst aspect ratio
+    // past kLargestAspect, with no triangle the mesh has already; else nothing.
+    std::vector<Triangle> tileByShape(double& worst)
+    {
+        const std::vector<glm::dvec3>& p = mMesh.vertices;
+        double worstBefore = 0.0;
+        for (const std::uint32_t f : mFan) {
+            const Triangle& t = mMesh.triangles[f];
+            worstBefore = std::max(worstBefore, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        }
+        if (!(worstBefore > kLargestAspect)) return {};
+        std::vector<Triangle> tiles = tileHole(p, mRing, mWedge, joinedOutside(), worst);
+        // A margin well above rounding, as the flips': the same triangles, their corners rotated,
+        // may measure a hair lower, and two tilings could then take turns.
+        if (tiles.empty() || !(worst < worstBefore * (1.0 - 1e-9)) ||
+            std::any_of(tiles.begin(), tiles.end(), [&](const Triangle& t) { return outsideHas(t); }))
+            return {};
+        return tiles;
+    }
+
+    // Whether `tiles`, in place of mFan, move the surface by no more than the reach (`gone`: the
+    // vertices inside the polygon, which go), keep within the bound, and make no crease past a
+    // right angle where the fan had none.
+    bool keepsSurface(const std::vector<glm::dvec3>& gone, const std::vector<Triangle>& tiles)
+    {
+        if (tiles.empty()) return false;
+        const std::vector<glm::dvec3>& p = mMesh.vertices;
+        std::vector<Corners> before, after;
+        for (const std::uint32_t f : mFan) {
+            const Triangle& t = mMesh.triangles[f];
+            before.push_back({p[t[0]], p[t[1]], p[t[2]]});
+        }
+        for (const Triangle& t : tiles) {
+            after.push_back({p[t[0]], p[t[1]], p[t[2]]});
+            if (!mBound.holds(p[t[0]], p[t[1]], p[t[2]])) return false;
+        }
+        if (holeMove(gone, before, after) > mReach) return false;
+        // No crease past a right angle, unless the fan had one already (a tendril's tip, whose
+        // sides meet at a knife's edge whichever way it is tiled).
+        std::vector<Triangle> old;
+        for (const std::uint32_t f : mFan) old.push_back(mMesh.triangles[f]);
+        return !(sharpestCrease(mMesh, tiles, mOutside) < 0.0) || sharpestCrease(mMesh, old, mOutside) < 0.0;
+    }
+
+    // mFan's triangles go and `tiles` take their place.
+    void commit(const std::vector<Triangle>& tiles)
+    {
+        for (const std::uint32_t f : mFan) mGone[f] = true;
+        for (const Triangle& t : tiles) {
+            const std::uint32_t f = static_cast<std::uint32_t>(mMesh.triangles.size());
+            mMesh.triangles.push_back(t);
+            mGone.push_back(false);
+            for (const std::uint32_t v : t) mAround.offer(v, f);
+        }
+    }
+
     // Whether a triangle outside the fan has t's three corners: a ring of three whose triangle
     // the mesh has already (a tetrahedron's vertex) would leave two triangles over one.
     bool outsideHas(const Triangle& t)
@@ -1048,7 +1180,7 @@ private:
 
     // Which ring vertices the mesh joins already, outside the fan; and the triangles across the
     // ring's edges (mOutside).
-    std::vector<std::vector<bool>> joinedOutside(const std::vector<std::uint32_t>& set)
+    std::vector<std::vector<bool>> joinedOutside()
     {
         const std::size_t n = mRing.size();
         std::vector<std::vector<bool>> joined(n, std::vector<bool>(n, false));
@@ -1056,9 +1188,7 @@ private:
         for (std::size_t i = 0; i < n; ++i)
             for (const std::uint32_t f : mAround[mRing[i]]) {
                 const Triangle& t = mMesh.triangles[f];
-                if (mGone[f] || !holds(t, mRing[i]) ||
-                    std::any_of(set.begin(), set.end(), [&](std::uint32_t v) { return holds(t, v); }))
-                    continue;
+                if (mGone[f] || !holds(t, mRing[i]) || std::find(mFan.begin(), mFan.end(), f) != mFan.end()) continue;
                 for (std::size_t j = 0; j < n; ++j) joined[i][j] = joined[i][j] || (j != i && holds(t, mRing[j]));
                 if (oppositeCorner(t, mRing[(i + 1) % n], mRing[i]) >= 0) mOutside.push_back(t);
             }
@@ -1067,6 +1197,7 @@ private:
 
     TriangleMesh& mMesh;
     double mReach;
+    SurfaceBound mBound;
     VertexFans mAround;
     std::vector<bool> mGone;          // per triangle
     std::vector<std::uint32_t> mInto; // per vertex: itself, or kNoVertex once removed
@@ -1111,12 +1242,44 @@ long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>&
     singles.insert(singles.end(), sets.begin(), sets.end());
     std::vector<std::uint32_t> corners;
     for (const std::vector<std::uint32_t>& set : singles) corners.insert(corners.end(), set.begin(), set.end());
-    CornerRemover remover(mesh, corners, reach);
+    FanRetiler remover(mesh, corners, reach);
     long long removed = 0;
     for (const std::vector<std::uint32_t>& set : singles)
         if (remover.tryRemove(set)) removed += static_cast<long long>(set.size());
     if (removed > 0) remover.finish();
     return removed;
+}
+
+long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound& bound)
+{
+    const std::vector<glm::dvec3>& p = mesh.vertices;
+    long long retiled = 0;
+    // Each round looks again at the needles the one before left, its own new ones included; a
+    // tiling is taken only where it lowers its fan's worst aspect ratio, so the rounds end.
+    for (bool again = true; again;) {
+        std::vector<std::uint32_t> needles, corners;
+        for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+            const Triangle& t = mesh.triangles[f];
+            if (!(aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > kLargestAspect)) continue;
+            needles.push_back(f);
+            corners.insert(corners.end(), t.begin(), t.end());
+        }
+        if (needles.empty()) break;
+        // Worst first; then by triangle, as tiled: the same whichever way the level was built.
+        std::stable_sort(needles.begin(), needles.end(), [&](std::uint32_t a, std::uint32_t b) {
+            const Triangle &s = mesh.triangles[a], &t = mesh.triangles[b];
+            return aspectRatio(p[s[0]], p[s[1]], p[s[2]]) > aspectRatio(p[t[0]], p[t[1]], p[t[2]]);
+        });
+        FanRetiler retiler(mesh, corners, reach, bound);
+        again = false;
+        for (const std::uint32_t f : needles)
+            if (!retiler.gone(f) && retiler.tryRetileAround(f)) {
+                ++retiled;
+                again = true;
+            }
+        retiler.finish();
+    }
+    return retiled;
 }
 
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis, const std::vector<glm::dvec3>& coarser)

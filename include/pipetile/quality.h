@@ -136,6 +136,20 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
 /// @return the number of corners removed.
 long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach);
 
+/// Tiles anew the fans that hold the needles the other passes leave: where the three corners of a
+/// triangle past kLargestAspect all stay (a coarser level has them), a corner fanned across a slab
+/// over a contour a vertex per pixel, collinear with it, stays a needle under any flip. For each
+/// such needle, worst first, and each of its corners, parts of the corner's fan around the needle
+/// (up to 12 triangles either side, one left) are tiled anew as removeNeedleCorners tiles its
+/// holes, the corner staying on the polygon: the part and tiling with the smallest largest aspect
+/// ratio is taken where that lowers the part's, moves the surface by no more than `reach` (world
+/// units), keeps every new triangle within `bound`, and makes no crease past a right angle where
+/// the part had none. Vertices stay as they are, so levels still nest; the mesh stays closed,
+/// manifold and oriented, with the same components and Euler characteristic. Rounds go on while
+/// one retiles a fan. Deterministic.
+/// @return the number of fans tiled anew.
+long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound& bound = {});
+
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
 /// few voxels far above. Every such edge of a triangle over kShortEdgeAspect, or of a speck (all
