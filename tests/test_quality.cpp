@@ -800,8 +800,9 @@ TEST(Quality, ACornerCollapseMovesTheSurfaceNoFartherThanItsReach)
 
 // No needle over 100 on the phantom sliced along y: it keeps 145, 133 and 131 at levels 1 to 3,
 // each a band some 70 voxels long fanned from a crossing over a few points of the next contour a
-// voxel or two apart; a tiling of those fans that lowers them moves the surface farther than the
-// corners' removal may (retileNeedleFans).
+// voxel or two apart, where the phantom's flat top meets its wall; every tiling of those fans that
+// lowers them folds the surface past a right angle or moves it farther than the corners' removal
+// may (retileNeedleFans).
 TEST(KnownGap, ThePhantomSlicedAcrossItsLengthHasNoNeedles)
 {
     expectNoNeedlesAlong({"phantom"}, Axis::Y);
