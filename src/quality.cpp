@@ -991,37 +991,33 @@ public:
         static constexpr int kSides[] = {0, 1, 2, 3, 4, 6, 8, 12};
         struct Part {
             double worst;
-            std::size_t size;
-            std::uint32_t corner;
+            std::vector<Triangle> tiles;
+            std::size_t corner; // of the needle
             int before, after;
         };
         std::vector<Part> parts;
         const Triangle corners = mMesh.triangles[needle];
         std::vector<std::vector<std::uint32_t>> fans;
-        for (const std::uint32_t v : corners) {
-            fans.push_back(fanFrom(v, needle));
+        for (std::size_t k = 0; k < corners.size(); ++k) {
+            fans.push_back(fanFrom(corners[k], needle));
             const int size = static_cast<int>(fans.back().size());
             for (const int before : kSides)
                 for (const int after : kSides) {
-                    // One triangle stays, so v stays on the polygon and is no corner inside it.
+                    // One triangle stays, so the corner stays on the polygon and is none inside it.
                     if (before + after + 2 > size) continue;
-                    gatherPart(v, fans.back(), before, after);
+                    gatherPart(corners[k], fans.back(), before, after);
                     double worst = 0.0;
-                    const std::vector<Triangle> tiles = tileByShape(worst);
-                    if (!tiles.empty()) parts.push_back({worst, tiles.size(), v, before, after});
+                    std::vector<Triangle> tiles = tileByShape(worst);
+                    if (!tiles.empty()) parts.push_back({worst, std::move(tiles), k, before, after});
                 }
         }
         std::stable_sort(parts.begin(), parts.end(), [](const Part& x, const Part& y) {
-            return x.worst != y.worst ? x.worst < y.worst : x.size < y.size;
+            return x.worst != y.worst ? x.worst < y.worst : x.tiles.size() < y.tiles.size();
         });
         for (const Part& part : parts) {
-            const std::size_t k =
-                static_cast<std::size_t>(std::find(corners.begin(), corners.end(), part.corner) - corners.begin());
-            gatherPart(part.corner, fans[k], part.before, part.after);
-            double worst = 0.0;
-            const std::vector<Triangle> tiles = tileByShape(worst);
-            if (keepsSurface({}, tiles)) {
-                commit(tiles);
+            gatherPart(corners[part.corner], fans[part.corner], part.before, part.after);
+            if (keepsSurface({}, part.tiles)) {
+                commit(part.tiles);
                 return true;
             }
         }
@@ -1152,7 +1148,8 @@ private:
         // sides meet at a knife's edge whichever way it is tiled).
         std::vector<Triangle> old;
         for (const std::uint32_t f : mFan) old.push_back(mMesh.triangles[f]);
-        return !(sharpestCrease(mMesh, tiles, mOutside) < 0.0) || sharpestCrease(mMesh, old, mOutside) < 0.0;
+        const std::vector<Triangle> outside = acrossRing();
+        return !(sharpestCrease(mMesh, tiles, outside) < 0.0) || sharpestCrease(mMesh, old, outside) < 0.0;
     }
 
     // mFan's triangles go and `tiles` take their place.
@@ -1167,32 +1164,51 @@ private:
         }
     }
 
-    // Whether a triangle outside the fan has t's three corners: a ring of three whose triangle
-    // the mesh has already (a tetrahedron's vertex) would leave two triangles over one.
+    // Whether a triangle outside the fan has t's three corners the same way round: two triangles
+    // over one. The other way round, the two close a pillow (a speck's shape at the coarser
+    // levels, when a tetrahedron's vertex goes).
     bool outsideHas(const Triangle& t)
     {
-        for (const std::uint32_t f : mAround[t[0]])
-            if (!mGone[f] && std::find(mFan.begin(), mFan.end(), f) == mFan.end() && holds(mMesh.triangles[f], t[0]) &&
-                holds(mMesh.triangles[f], t[1]) && holds(mMesh.triangles[f], t[2]))
+        for (const std::uint32_t f : mAround[t[0]]) {
+            const Triangle& s = mMesh.triangles[f];
+            if (!mGone[f] && std::find(mFan.begin(), mFan.end(), f) == mFan.end() && holds(s, t[0]) && holds(s, t[1]) &&
+                holds(s, t[2]) && oppositeCorner(s, t[1], t[0]) < 0)
                 return true;
+        }
         return false;
     }
 
-    // Which ring vertices the mesh joins already, outside the fan; and the triangles across the
-    // ring's edges (mOutside).
+    // Calls visit(t) for each triangle t at the i-th ring vertex outside the fan.
+    template <class Visit>
+    void forEachOutside(std::size_t i, Visit visit)
+    {
+        for (const std::uint32_t f : mAround[mRing[i]]) {
+            const Triangle& t = mMesh.triangles[f];
+            if (!mGone[f] && holds(t, mRing[i]) && std::find(mFan.begin(), mFan.end(), f) == mFan.end()) visit(t);
+        }
+    }
+
+    // Which ring vertices the mesh joins already, outside the fan.
     std::vector<std::vector<bool>> joinedOutside()
     {
         const std::size_t n = mRing.size();
         std::vector<std::vector<bool>> joined(n, std::vector<bool>(n, false));
-        mOutside.clear();
         for (std::size_t i = 0; i < n; ++i)
-            for (const std::uint32_t f : mAround[mRing[i]]) {
-                const Triangle& t = mMesh.triangles[f];
-                if (mGone[f] || !holds(t, mRing[i]) || std::find(mFan.begin(), mFan.end(), f) != mFan.end()) continue;
+            forEachOutside(i, [&](const Triangle& t) {
                 for (std::size_t j = 0; j < n; ++j) joined[i][j] = joined[i][j] || (j != i && holds(t, mRing[j]));
-                if (oppositeCorner(t, mRing[(i + 1) % n], mRing[i]) >= 0) mOutside.push_back(t);
-            }
+            });
         return joined;
+    }
+
+    // The triangles across the ring's edges, outside the fan.
+    std::vector<Triangle> acrossRing()
+    {
+        std::vector<Triangle> across;
+        for (std::size_t i = 0; i < mRing.size(); ++i)
+            forEachOutside(i, [&](const Triangle& t) {
+                if (oppositeCorner(t, mRing[(i + 1) % mRing.size()], mRing[i]) >= 0) across.push_back(t);
+            });
+        return across;
     }
 
     TriangleMesh& mMesh;
@@ -1203,12 +1219,14 @@ private:
     std::vector<std::uint32_t> mInto; // per vertex: itself, or kNoVertex once removed
     std::vector<std::uint32_t> mFan, mRing;
     std::vector<glm::dvec3> mWedge;
-    std::vector<Triangle> mOutside;
 };
 
 } // namespace
 
-long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach)
+namespace {
+
+// One round of removeNeedleCorners: the needles the mesh has now.
+long long removeNeedleCornersOnce(TriangleMesh& mesh, CoarserVertices& kept, double reach)
 {
     const std::vector<glm::dvec3>& p = mesh.vertices;
     // Most meshes have no needle, and then nothing else is done.
@@ -1216,7 +1234,6 @@ long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>&
     for (const Triangle& t : mesh.triangles)
         if (aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > kLargestAspect) needles.push_back(t);
     if (needles.empty()) return 0;
-    CoarserVertices kept(coarser);
     const auto inCoarser = [&](const glm::dvec3& q) { return kept.has(q); };
     const auto first = [&](std::uint32_t x, std::uint32_t y) { return before(p[x], p[y]) || (p[x] == p[y] && x < y); };
     // Each needle's corners the coarser level lacks, one at a time, then together (three points
@@ -1247,6 +1264,19 @@ long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>&
     for (const std::vector<std::uint32_t>& set : singles)
         if (remover.tryRemove(set)) removed += static_cast<long long>(set.size());
     if (removed > 0) remover.finish();
+    return removed;
+}
+
+} // namespace
+
+long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach)
+{
+    // Each round looks again at the needles the one before left: a bipyramid's vertex may go,
+    // leaving a tetrahedron whose needle only another vertex's removal takes away. Each round
+    // removes a vertex or ends the rounds.
+    CoarserVertices kept(coarser);
+    long long removed = 0;
+    for (long long round = 1; round > 0; removed += round) round = removeNeedleCornersOnce(mesh, kept, reach);
     return removed;
 }
 

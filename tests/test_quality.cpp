@@ -706,6 +706,48 @@ TEST(Quality, ANeedlesCornerThatNoCollapseTakesIsRemoved)
 
 namespace {
 
+// A speck's spindle, as the gaffer smoke at iso 0.1 along x has one at level 2: its axis from
+// vertex 0 to vertex 1, a unit long, through a ring of three points a hundredth apart (2 to 4),
+// where the level below had a pillow of 0, 2 and 3. The triangles from vertex 4 to 2 and an end
+// are needles (aspect 106 and 105).
+TriangleMesh spindleOverAPillow()
+{
+    TriangleMesh mesh;
+    mesh.vertices = {
+        {0.005, -0.5, 0.0005}, {0.005, 0.5, 0.0005}, {0.0, 0.0, 0.0}, {0.012, 0.0, 0.0}, {0.004, -0.02, 0.0015}};
+    mesh.triangles = {{1, 3, 2}, {0, 2, 3}, {1, 4, 3}, {0, 3, 4}, {1, 2, 4}, {0, 4, 2}};
+    return mesh;
+}
+
+} // namespace
+
+TEST(Quality, ASpindlesNewCornersGoInRoundsDownToThePillowBelow)
+{
+    TriangleMesh mesh = spindleOverAPillow();
+    ASSERT_GT(measureQuality(mesh).largestAspect, 100.0);
+    const std::vector<glm::dvec3> before = mesh.vertices, pillow(before.begin(), before.begin() + 3);
+    // Vertex 4 alone cannot go (its polygon's diagonal 0-1 would pass 0.005 from vertex 2, aspect
+    // 173); the end 1 can, leaving a tetrahedron whose needle 0-4-2 a second round takes: 4 goes,
+    // and its polygon 0, 2, 3 closes against the triangle 0-2-3 (reversed) into the pillow.
+    EXPECT_EQ(removeNeedleCorners(mesh, {before[0], before[2], before[3]}, 0.6), 2);
+    const Topology t = checkTopology(mesh);
+    EXPECT_TRUE(t.closed() && t.manifold() && t.oriented());
+    EXPECT_EQ(t.euler, 2);
+    EXPECT_EQ(t.components, 1);
+    EXPECT_EQ(mesh.vertices, std::vector<glm::dvec3>({before[0], before[2], before[3]}));
+    EXPECT_EQ(mesh.triangles.size(), 2u);
+    // The pillow's aspect: its longest edge 0-3 squared over twice its area (base 0.012, height
+    // the distance from vertex 0 to the x axis), times sqrt(3) / 2.
+    const double longest = 0.007 * 0.007 + 0.25 + 0.0005 * 0.0005, height = std::sqrt(0.25 + 0.0005 * 0.0005);
+    EXPECT_NEAR(measureQuality(mesh).largestAspect, longest / (0.012 * height) * std::sqrt(3.0) / 2.0, 1e-6);
+    // The end lies half a unit from what is left: within a reach of 0.1 nothing goes.
+    mesh = spindleOverAPillow();
+    EXPECT_EQ(removeNeedleCorners(mesh, {before[0], before[2], before[3]}, 0.1), 0);
+    EXPECT_EQ(mesh.triangles.size(), 6u);
+}
+
+namespace {
+
 // A flat fan of needles: vertex 0 at (0, 0.2, 0) fanned in the plane z = 0 over a chain of six
 // points a pixel apart a tenth below its line (1 to 6, y = 0.1) and another a voxel above (7 to
 // 12, y = 1.1, x = 10 to 15), as a band fans a contour's vertex across a slab to a contour a vertex

@@ -130,16 +130,18 @@ long long inflatePillows(TriangleMesh& mesh, const Volume& volume, const std::ve
 /// the fewest triangles facing against the part of the fan they cover, then the smallest largest
 /// aspect ratio, with no edge or triangle the mesh has already. It is made where that lowers the
 /// fan's worst aspect ratio, moves the surface by no more than `reach` (world units), and makes no
-/// crease past a right angle where the fan had none. The mesh stays closed, manifold and oriented,
-/// with the same components and Euler characteristic, and levels still nest; vertices keep their
-/// order. Deterministic: corners go in order of position.
+/// crease past a right angle where the fan had none; a tetrahedron's corner may go, and the two
+/// triangles left over its other three make a pillow, a speck's shape at the coarser levels. Rounds
+/// go on while a corner goes. The mesh stays closed, manifold and oriented, with the same
+/// components and Euler characteristic, and levels still nest; vertices keep their order.
+/// Deterministic: corners go in order of position.
 /// @return the number of corners removed.
 long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach);
 
-/// Tiles anew the fans that hold the needles the other passes leave: where the three corners of a
-/// triangle past kLargestAspect all stay (a coarser level has them), a corner fanned across a slab
-/// over a contour a vertex per pixel, collinear with it, stays a needle under any flip. For each
-/// such needle, worst first, and each of its corners, parts of the corner's fan around the needle
+/// Tiles anew the fans that hold the needles the other passes leave, mostly where the three corners
+/// of a triangle past kLargestAspect all stay (a coarser level has them): a corner fanned across a
+/// slab over a contour a vertex per pixel, collinear with it, stays a needle under any flip. For
+/// each needle, worst first, and each of its corners, parts of the corner's fan around the needle
 /// (up to 12 triangles either side, one left) are tiled anew as removeNeedleCorners tiles its
 /// holes, the corner staying on the polygon: the part and tiling with the smallest largest aspect
 /// ratio is taken where that lowers the part's, moves the surface by no more than `reach` (world
