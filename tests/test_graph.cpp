@@ -1346,6 +1346,18 @@ TEST(Graph, ASpeckBesideASingleTubeThatNoPlaneMeetsIsFound)
     expectTopLevelWithinAVoxelAlong(volume, Axis::X);
 }
 
+// A random crop of the smoke at iso 0.3, sliced along z (survey seed 120): an arm 0.02 over the
+// isovalue in the voxel plane z = 79 alone reaches 1.47 pixels past its tube's last contour, in a
+// plane added at 79.17, where the tube ends downward. An end was left to its cells only past 1.5
+// pixels, and its cap was 1.43 voxels off at the top level; past a pixel now, as a band
+// (caps.cpp, kEndStray).
+TEST(Graph, AnEndsArmInTheVoxelPlanePastItsLastContourIsFound)
+{
+    const Volume volume = smokeCrop({32, 36, 54}, {71, 59, 99}, 0.3);
+    expectEveryLevelAs(volume, Axis::Z, checkTopology(isosurface(volume, 0.0)));
+    expectTopLevelWithinAVoxelAlong(volume, Axis::Z);
+}
+
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
 // half its time).
 TEST(Graph, NoRegionLiesBetweenThePlanesOfTheSmoothSamples)
