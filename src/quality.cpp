@@ -1221,10 +1221,6 @@ private:
     std::vector<glm::dvec3> mWedge;
 };
 
-} // namespace
-
-namespace {
-
 // One round of removeNeedleCorners: the needles the mesh has now.
 long long removeNeedleCornersOnce(TriangleMesh& mesh, CoarserVertices& kept, double reach)
 {
@@ -1275,8 +1271,8 @@ long long removeNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>&
     // leaving a tetrahedron whose needle only another vertex's removal takes away. Each round
     // removes a vertex or ends the rounds.
     CoarserVertices kept(coarser);
-    long long removed = 0;
-    for (long long round = 1; round > 0; removed += round) round = removeNeedleCornersOnce(mesh, kept, reach);
+    long long removed = 0, round = 0;
+    while ((round = removeNeedleCornersOnce(mesh, kept, reach)) > 0) removed += round;
     return removed;
 }
 
