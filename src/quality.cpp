@@ -1134,9 +1134,10 @@ private:
     {
         if (tiles.empty()) return false;
         const std::vector<glm::dvec3>& p = mMesh.vertices;
+        std::vector<Triangle> old;
         std::vector<Corners> before, after;
         for (const std::uint32_t f : mFan) {
-            const Triangle& t = mMesh.triangles[f];
+            const Triangle& t = old.emplace_back(mMesh.triangles[f]);
             before.push_back({p[t[0]], p[t[1]], p[t[2]]});
         }
         for (const Triangle& t : tiles) {
@@ -1146,8 +1147,6 @@ private:
         if (holeMove(gone, before, after) > mReach) return false;
         // No crease past a right angle, unless the fan had one already (a tendril's tip, whose
         // sides meet at a knife's edge whichever way it is tiled).
-        std::vector<Triangle> old;
-        for (const std::uint32_t f : mFan) old.push_back(mMesh.triangles[f]);
         const std::vector<Triangle> outside = acrossRing();
         return !(sharpestCrease(mMesh, tiles, outside) < 0.0) || sharpestCrease(mMesh, old, outside) < 0.0;
     }
