@@ -2183,7 +2183,7 @@ void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed
         const double wFrom = mPositions[mGraph.order[from]];
         const bool missing =
             std::any_of(missed.begin(), missed.end(), [&](const EulerDifference& d) { return d.wBelow == wFrom; });
-        const auto contradicts = [&](const ContourGraph::Slab& slab) { return unresolvedPatchFindsHandles(slab); };
+        const auto contradicts = [&](const ContourGraph::Slab& slab) { return patchFindsHandles(slab); };
         const auto slab = mGraph.slabs.begin() + static_cast<std::ptrdiff_t>(from);
         if (k - from >= 2 && wFrom == std::floor(wFrom) && !missing &&
             std::any_of(slab, slab + static_cast<std::ptrdiff_t>(k - from), contradicts))
@@ -2219,14 +2219,25 @@ void Reconstruction::patchWholeRanges(const std::vector<EulerDifference>& missed
     }
 }
 
-bool Reconstruction::unresolvedPatchFindsHandles(const ContourGraph::Slab& slab) const
+bool Reconstruction::patchFindsHandles(const ContourGraph::Slab& slab) const
 {
-    std::vector<const SlabPiece*> unresolved;
+    // A junction in a slab between voxel planes whose cells count a handle the voxel planes
+    // around do not (a crop of the smoke: an arm joined to a body for a quarter voxel at a pinch
+    // diagonal across the cells, where the interpolated plane joins it) cannot be halved (the
+    // halves would count that handle) and fans across the handle's hole (1.3 voxels off): the
+    // whole range's cells mesh it, where they close with the range's count.
+    const double wBelow = mPositions[slab.below], wAbove = mPositions[slab.above];
+    const bool thinJunction =
+        std::any_of(mCellPieces.thinJunctions.begin(), mCellPieces.thinJunctions.end(),
+                    [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
+    std::vector<const SlabPiece*> asked;
     for (const SlabPiece& piece : slab.pieces)
-        if (piece.kind == EventKind::Unresolved) unresolved.push_back(&piece);
-    const std::vector<std::optional<SlabPatch>> patches = patchesOf(slab.below, slab.above, unresolved);
+        if (piece.kind == EventKind::Unresolved ||
+            (thinJunction && (piece.kind == EventKind::Fork || piece.kind == EventKind::Merge)))
+            asked.push_back(&piece);
+    const std::vector<std::optional<SlabPatch>> patches = patchesOf(slab.below, slab.above, asked);
     for (std::size_t k = 0; k < patches.size(); ++k)
-        if (patches[k] && patches[k]->euler != unresolved[k]->euler()) return true;
+        if (patches[k] && patches[k]->euler != asked[k]->euler()) return true;
     return false;
 }
 

@@ -1358,6 +1358,19 @@ TEST(Graph, AnEndsArmInTheVoxelPlanePastItsLastContourIsFound)
     expectTopLevelWithinAVoxelAlong(volume, Axis::Z);
 }
 
+// A crop of the smoke at iso 0.3 along y: in the plane added at 100.25 an arm meets a body at a
+// pinch diagonal across the cells (inside at one pixel on the voxel plane below, at the other on
+// the plane above), which the interpolated plane joins; a quarter voxel up, the arm joins the body
+// through the cells. The merge in that slab counts a handle in its cells that the voxel planes
+// around do not, no plane halves it, and its part fanned across a bay, 1.30 voxels off at the top
+// level. The range between the voxel planes is meshed from its cells (patchFindsHandles).
+TEST(Graph, AJunctionWhoseCellsCountAHandleTheVoxelPlanesDoNotTakesTheWholeRange)
+{
+    const Volume volume = smokeCrop({71, 76, 37}, {101, 120, 84}, 0.3);
+    expectEveryLevelAs(volume, Axis::Y, checkTopology(isosurface(volume, 0.0)));
+    expectTopLevelWithinAVoxelAlong(volume, Axis::Y);
+}
+
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
 // half its time).
 TEST(Graph, NoRegionLiesBetweenThePlanesOfTheSmoothSamples)

@@ -343,14 +343,15 @@ private:
     /// Plane s's loops as the graph sees them.
     PlaneLoops planeLoops(int s) const;
     /// Each range between voxel planes in `missed` (the cells count fewer there than the slabs'
-    /// pieces), or holding an unresolved piece whose patch has handles the cells do not count,
-    /// whose pieces, taken across the whole range and patched from their cells, add up to the
-    /// cells' count: its slabs become one, the planes added between are dropped from the graph.
-    /// Only once the cells are counted (mCells).
+    /// pieces), or holding a piece whose patch has handles the range's cells do not count
+    /// (patchFindsHandles), whose pieces, taken across the whole range and patched from their
+    /// cells, add up to the cells' count: its slabs become one, the planes added between are
+    /// dropped from the graph. Only once the cells are counted (mCells).
     void patchWholeRanges(const std::vector<EulerDifference>& missed);
-    /// Whether a piece of the slab that no construction fits (Unresolved), patched from its cells,
-    /// has handles.
-    bool unresolvedPatchFindsHandles(const ContourGraph::Slab& slab) const;
+    /// Whether a piece of the slab, patched from its cells, has handles: one that no construction
+    /// fits (Unresolved), or a fork or merge that strayed in a first build with cells that did not
+    /// close, which halving its slab could not resolve (in a range of thinJunctions).
+    bool patchFindsHandles(const ContourGraph::Slab& slab) const;
     /// Appends the patch of `piece` between those planes and counts it, with the handles it finds
     /// (SlabPiece::handles); returns its index.
     int addPatch(int below, int above, SlabPiece& piece, SlabPatch&& surface);
