@@ -1291,6 +1291,21 @@ TEST(Graph, AnEndBandFannedAcrossABayLeavesTheEndToItsCells)
     expectTopLevelWithinAVoxelAlong(volume, Axis::Y);
 }
 
+// Another crop, at iso 0.1 along x: its first plane, x = 42, holds a C whose one horn lies barely
+// over the isovalue, and the end contour 0.65 voxel past it keeps the dense side only. The band
+// between them fans the horn to it across the valley: 1.08 voxels off at the top level, where
+// the field, asked within a voxel's reach over 0.88 (1.14), still found the surface. Asked within
+// the reach itself, the band strays and the end is meshed from its cells.
+TEST(Graph, AnEndBandStrayingJustPastAVoxelLeavesTheEndToItsCells)
+{
+    const Volume volume = smokeCrop({42, 97, 21}, {69, 144, 49}, 0.1);
+    MeshOptions options;
+    options.slicing.axis = Axis::X;
+    const Reconstruction reconstruction(volume, options);
+    EXPECT_GT(reconstruction.stats().endPatches, 0);
+    expectTopLevelWithinAVoxelAlong(volume, Axis::X);
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,
