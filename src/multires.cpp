@@ -1950,13 +1950,16 @@ bool straysFrom(const Volume& volume, const std::vector<glm::dvec3>& vertices, c
 // middle of its long sides (a crop of the smoke: 1.15 voxels off, though each triangle's point
 // farthest from its corners was within a voxel), and no flip takes a fan. Inside the object the
 // level's needle passes flip such slivers onto the surface (the crossing tubes sliced along y:
-// end bands 1.16 voxels off as tiled, 0.45 at the top level), so only points outside are asked.
+// end bands 1.16 voxels off as tiled, 0.45 at the top level), so only points outside are asked,
+// unless `insideToo`: a junction's parts (a crop: a merge of two walls and a hole in a slab half
+// a voxel thick fanned a part 1.21 voxels deep into the object, where the needle passes left it).
 // Those are asked within the reach itself, not over 0.88 as straysFrom asks: a surface a little
 // past the reach shows there along some direction (another crop: an end band fanned across a
 // valley 1.08 voxels off went unasked; so did two others, 1.04), and where one within it does
 // not, the end is only meshed from its cells (over crop survey seeds 115 to 120, 3 runs over a
 // voxel went, and the evaluation's meshes stayed but for 16 triangles of one run).
-bool straysAnywhere(const Volume& volume, const std::vector<glm::dvec3>& vertices, const Triangle& t, double reach)
+bool straysAnywhere(const Volume& volume, const std::vector<glm::dvec3>& vertices, const Triangle& t, double reach,
+                    bool insideToo = false)
 {
     if (straysFrom(volume, vertices, t, reach)) return true;
     const glm::dvec3 &a = vertices[t[0]], &b = vertices[t[1]], &c = vertices[t[2]];
@@ -1967,7 +1970,7 @@ bool straysAnywhere(const Volume& volume, const std::vector<glm::dvec3>& vertice
         for (int j = 0; i + j <= n; ++j) {
             const glm::dvec3 p = a + (b - a) * (double(i) / n) + (c - a) * (double(j) / n);
             if (std::min({glm::distance(p, a), glm::distance(p, b), glm::distance(p, c)}) > near &&
-                volume.signedField(p) > 0.0 && !volume.surfaceWithin(p, reach))
+                (insideToo || volume.signedField(p) > 0.0) && !volume.surfaceWithin(p, reach))
                 return true;
         }
     return false;
@@ -1979,12 +1982,15 @@ std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<
 {
     if (trees.empty()) buildTrees();
     std::vector<bool> straying(mJunctions.size(), false);
+    // At points all over each part, inside the object too: the needle passes do not flip a
+    // junction's fans onto the surface as they do an end band's slivers (straysAnywhere).
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         if (!asked[j]) continue;
         const std::size_t first = mesh.triangles.size();
         tileJunction(j);
-        straying[j] = std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
-                                  [&](const Triangle& t) { return straysFrom(mVolume, mesh.vertices, t, reach); });
+        straying[j] =
+            std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
+                        [&](const Triangle& t) { return straysAnywhere(mVolume, mesh.vertices, t, reach, true); });
     }
     return straying;
 }
@@ -2000,9 +2006,11 @@ std::set<std::pair<int, int>> Reconstruction::Assembly::strayingBands(const std:
     for (std::size_t i = 1; i < members.size(); ++i) {
         const std::pair<int, int> lower{members[i - 1].slice, members[i - 1].loop};
         if (members[i].startsTube || asked.count(lower) == 0) continue;
-        const auto strays = ends.count(lower) > 0 ? straysAnywhere : straysFrom;
-        if (std::any_of(bands[i].begin(), bands[i].end(),
-                        [&](const Triangle& t) { return strays(mVolume, mesh.vertices, t, reach); }))
+        const bool end = ends.count(lower) > 0;
+        if (std::any_of(bands[i].begin(), bands[i].end(), [&](const Triangle& t) {
+                return end ? straysAnywhere(mVolume, mesh.vertices, t, reach)
+                           : straysFrom(mVolume, mesh.vertices, t, reach);
+            }))
             straying.insert(lower);
     }
     return straying;

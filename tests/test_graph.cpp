@@ -1306,6 +1306,16 @@ TEST(Graph, AnEndBandStrayingJustPastAVoxelLeavesTheEndToItsCells)
     expectTopLevelWithinAVoxelAlong(volume, Axis::X);
 }
 
+// A crop at iso 0.2 along x: two walls and a hole merge in the slab 62.5 to 63, half a voxel
+// thick, and a part fanned 1.21 voxels deep into the object at the top level, where no point of
+// it asked outside the object strayed. Its parts are asked inside too, and its cells mesh it.
+TEST(Graph, AJunctionsPartStrayingInsideTheObjectIsFound)
+{
+    const Volume volume = smokeCrop({47, 86, 59}, {93, 132, 99}, 0.2);
+    expectEveryLevelAs(volume, Axis::X, checkTopology(isosurface(volume, 0.0)));
+    expectTopLevelWithinAVoxelAlong(volume, Axis::X);
+}
+
 // Pieces of walls and holes that no construction from contours fits (fog voxels meeting along
 // edges and corners within one slab) are meshed from their slab's cells (graph.h, SlabPatch): a
 // crop of the smoke's blob at iso 0.1 (data/README.md's value), whose 9 such pieces were capped,
