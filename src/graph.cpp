@@ -29,6 +29,13 @@ namespace pipetile {
 
 namespace {
 
+// Whether the slab from wBelow to wAbove overlaps one of `ranges` (thinJunctions).
+bool overlapsAny(const std::vector<std::pair<double, double>>& ranges, double wBelow, double wAbove)
+{
+    return std::any_of(ranges.begin(), ranges.end(),
+                       [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
+}
+
 struct PixelBox {
     glm::ivec2 min{0}, max{0}; // inclusive
     bool overlaps(const PixelBox& other) const
@@ -1086,9 +1093,7 @@ double GraphBuilder::thickness(int below, int above, const std::vector<SlabPiece
     // flat 0.25, 0.24; the torus standing, along x, 0.39, 0.30).
     constexpr double kRimSlab = 1.0;
     const double wBelow = mPlanes[below].w, wAbove = mPlanes[above].w;
-    const bool thin =
-        std::any_of(mThinJunctions.begin(), mThinJunctions.end(),
-                    [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
+    const bool thin = overlapsAny(mThinJunctions, wBelow, wAbove);
     const double junction = thin ? mMinThickness / 8.0 : mMinThickness;
     double target = 0.0;
     for (const SlabPiece& p : pieces) {
@@ -2226,10 +2231,7 @@ bool Reconstruction::patchFindsHandles(const ContourGraph::Slab& slab) const
     // diagonal across the cells, where the interpolated plane joins it) cannot be halved (the
     // halves would count that handle) and fans across the handle's hole (1.3 voxels off): the
     // whole range's cells mesh it, where they close with the range's count.
-    const double wBelow = mPositions[slab.below], wAbove = mPositions[slab.above];
-    const bool thinJunction =
-        std::any_of(mCellPieces.thinJunctions.begin(), mCellPieces.thinJunctions.end(),
-                    [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
+    const bool thinJunction = overlapsAny(mCellPieces.thinJunctions, mPositions[slab.below], mPositions[slab.above]);
     std::vector<const SlabPiece*> asked;
     for (const SlabPiece& piece : slab.pieces)
         if (piece.kind == EventKind::Unresolved ||

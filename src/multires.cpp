@@ -1951,13 +1951,13 @@ bool straysFrom(const Volume& volume, const std::vector<glm::dvec3>& vertices, c
 // farthest from its corners was within a voxel), and no flip takes a fan. Inside the object the
 // level's needle passes flip such slivers onto the surface (the crossing tubes sliced along y:
 // end bands 1.16 voxels off as tiled, 0.45 at the top level), so only points outside are asked,
-// unless `insideToo`: a junction's parts (a crop: a merge of two walls and a hole in a slab half
-// a voxel thick fanned a part 1.21 voxels deep into the object, where the needle passes left it).
-// Those are asked within the reach itself, not over 0.88 as straysFrom asks: a surface a little
-// past the reach shows there along some direction (another crop: an end band fanned across a
-// valley 1.08 voxels off went unasked; so did two others, 1.04), and where one within it does
-// not, the end is only meshed from its cells (over crop survey seeds 115 to 120, 3 runs over a
-// voxel went, and the evaluation's meshes stayed but for 16 triangles of one run).
+// unless `insideToo`: no flip takes a junction's fans (a crop: a merge of two walls and a hole in
+// a slab half a voxel thick fanned a part 1.21 voxels deep into the object).
+// The points are asked within the reach itself, not over 0.88 as straysFrom asks: a surface a
+// little past the reach shows there along some direction (another crop: an end band fanned across
+// a valley 1.08 voxels off went unasked; so did two others, 1.04), and one within it that does not
+// show only leaves the end to its cells (over crop survey seeds 115 to 120, 3 runs over a voxel
+// went, and the evaluation's meshes stayed but for 16 triangles of one run).
 bool straysAnywhere(const Volume& volume, const std::vector<glm::dvec3>& vertices, const Triangle& t, double reach,
                     bool insideToo = false)
 {
@@ -1982,8 +1982,7 @@ std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<
 {
     if (trees.empty()) buildTrees();
     std::vector<bool> straying(mJunctions.size(), false);
-    // At points all over each part, inside the object too: the needle passes do not flip a
-    // junction's fans onto the surface as they do an end band's slivers (straysAnywhere).
+    // At points all over each part, inside the object too (straysAnywhere).
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         if (!asked[j]) continue;
         const std::size_t first = mesh.triangles.size();
