@@ -1218,6 +1218,17 @@ void expectTopLevelWithinAVoxelAlong(const Volume& volume, Axis axis)
     EXPECT_EQ(t.euler, checkTopology(isosurface(volume, 0.0)).euler);
 }
 
+// The second build meshes an end of `volume` sliced along `axis` from its cells, and its top
+// level keeps within a voxel of the isosurface.
+void expectAnEndFromItsCells(const Volume& volume, Axis axis)
+{
+    MeshOptions options;
+    options.slicing.axis = axis;
+    const Reconstruction reconstruction(volume, options);
+    EXPECT_GT(reconstruction.stats().endPatches, 0);
+    expectTopLevelWithinAVoxelAlong(volume, axis);
+}
+
 } // namespace
 
 // The smoke at iso 0.1 along y (a crop of its y range 176 to 200 shows the same): between y = 187
@@ -1283,12 +1294,7 @@ TEST(Graph, AStrayingBandInAThinSlabTakesItsRangeBetweenVoxelPlanes)
 // band strays, and the second build meshes that end from its cells (patchEnd): 0.64.
 TEST(Graph, AnEndBandFannedAcrossABayLeavesTheEndToItsCells)
 {
-    const Volume volume = smokeCrop({2, 120, 52}, {30, 163, 76}, 0.1);
-    MeshOptions options;
-    options.slicing.axis = Axis::Y;
-    const Reconstruction reconstruction(volume, options);
-    EXPECT_GT(reconstruction.stats().endPatches, 0);
-    expectTopLevelWithinAVoxelAlong(volume, Axis::Y);
+    expectAnEndFromItsCells(smokeCrop({2, 120, 52}, {30, 163, 76}, 0.1), Axis::Y);
 }
 
 // Another crop, at iso 0.1 along x: its first plane, x = 42, holds a C whose one horn lies barely
@@ -1298,12 +1304,7 @@ TEST(Graph, AnEndBandFannedAcrossABayLeavesTheEndToItsCells)
 // the reach itself, the band strays and the end is meshed from its cells.
 TEST(Graph, AnEndBandStrayingJustPastAVoxelLeavesTheEndToItsCells)
 {
-    const Volume volume = smokeCrop({42, 97, 21}, {69, 144, 49}, 0.1);
-    MeshOptions options;
-    options.slicing.axis = Axis::X;
-    const Reconstruction reconstruction(volume, options);
-    EXPECT_GT(reconstruction.stats().endPatches, 0);
-    expectTopLevelWithinAVoxelAlong(volume, Axis::X);
+    expectAnEndFromItsCells(smokeCrop({42, 97, 21}, {69, 144, 49}, 0.1), Axis::X);
 }
 
 // A crop at iso 0.2 along x: two walls and a hole merge in the slab 62.5 to 63, half a voxel
