@@ -29,13 +29,6 @@ namespace pipetile {
 
 namespace {
 
-// Whether the slab from wBelow to wAbove overlaps one of `ranges` (thinJunctions).
-bool overlapsAny(const std::vector<std::pair<double, double>>& ranges, double wBelow, double wAbove)
-{
-    return std::any_of(ranges.begin(), ranges.end(),
-                       [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
-}
-
 struct PixelBox {
     glm::ivec2 min{0}, max{0}; // inclusive
     bool overlaps(const PixelBox& other) const

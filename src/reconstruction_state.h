@@ -11,6 +11,7 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -21,6 +22,13 @@ namespace pipetile {
 constexpr double kEventThickness = 0.5;
 // Pixels a band's contours may change shape by before its slab is halved (correspond()).
 constexpr double kShapeChange = 3.0;
+
+// Whether the slab from wBelow to wAbove overlaps one of `ranges` (of w, as thinJunctions).
+inline bool overlapsAny(const std::vector<std::pair<double, double>>& ranges, double wBelow, double wAbove)
+{
+    return std::any_of(ranges.begin(), ranges.end(),
+                       [&](const std::pair<double, double>& r) { return wBelow < r.second && wAbove > r.first; });
+}
 
 struct Reconstruction::SliceLoop {
     BoundaryLoop loop;

@@ -1397,6 +1397,16 @@ TEST(Graph, AJunctionWhoseCellsCountAHandleTheVoxelPlanesDoNotTakesTheWholeRange
     expectTopLevelWithinAVoxelAlong(volume, Axis::Y);
 }
 
+// A crop at iso 0.1 along z: the first build halves the slab of a straying merge between z = 38
+// and 38.5 (thinJunctions). The plane the second build adds at 38.375 cuts a wall's band from
+// 38.25 to 38.5, which kept to the surface, and its lower half fans a vertex across a void to the
+// far wall: 1.84 voxels off at the top level. The second build's pieces in the halved ranges are
+// asked too, and a third build meshes the range 38 to 39 from its cells.
+TEST(Graph, ABandThePlanesOfAHalvedSlabCutAnewIsAskedToo)
+{
+    expectTopLevelWithinAVoxelAlong(smokeCrop({31, 104, 32}, {76, 146, 80}, 0.1), Axis::Z);
+}
+
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
 // half its time).
 TEST(Graph, NoRegionLiesBetweenThePlanesOfTheSmoothSamples)

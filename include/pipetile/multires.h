@@ -215,7 +215,7 @@ public:
 private:
     friend class Refinement;
     using Contours = std::vector<std::vector<Contour>>; // per plane, per loop
-    /// Pieces whose top level strays more than a voxel from the isosurface in a first build.
+    /// Pieces whose top level strays more than a voxel from the isosurface in an earlier build.
     struct StrayingPieces {
         std::set<std::array<int, 3>> junctions; // forks and merges: kind, single contour's plane and loop
         std::set<std::pair<int, int>> bands;    // bands: the lower contour's plane and loop
@@ -233,6 +233,8 @@ private:
         {
             return junctions.empty() && bands.empty() && thinJunctions.empty() && bandRanges.empty() && ends.empty();
         }
+        /// Adds `more`'s pieces; whether any of them was new.
+        bool add(const StrayingPieces& more);
     };
     /// The stages below, with the pieces `cellPieces` names meshed from their slab's cells where
     /// those close (resolveEvents).
@@ -289,8 +291,9 @@ private:
     /// take them; a band's only in a slab thicker than the events' (the cells of a thinner one
     /// leave needles: two capsule trees sliced along x, up to 734 where such bands took them).
     /// Straying forks and merges whose cells do not close give their slabs' ranges instead
-    /// (thinJunctions), and bands their ranges between voxel planes (bandRanges).
-    StrayingPieces strayingPieces() const;
+    /// (thinJunctions), and bands their ranges between voxel planes (bandRanges). Only the
+    /// pieces whose slabs overlap one of `ranges` (of w) are asked.
+    StrayingPieces strayingPieces(const std::vector<std::pair<double, double>>& ranges) const;
 
     /// A loop's contour with `rays`: cut against the plane's field, a waist's against its polygon
     /// (no field traced it); refined from `coarse` likewise.
