@@ -2086,9 +2086,18 @@ bool Reconstruction::splitBand(int below, int lowerLoop, int above, int upperLoo
     if (!first || !second || first->kind != EventKind::Band || second->kind != EventKind::Band ||
         second->below != first->above)
         return false;
-    if (strayFromBand(lower, lowerLoop, planeLoopsOf(middle.loops, middle.w), first->above[0], upper, upperLoop) <=
-        kBandStray)
-        return true;
+    // Along four times the profiles' directions: a notch a pixel wide in the middle plane falls
+    // between 64 of them (a crop of the smoke at iso 0.1, slices 2 voxels apart: a pit in one
+    // voxel plane measured 0.88 pixel, 1.12 along 256 directions, and the band over it lay 1.14
+    // voxels off at the top level).
+    const SliceLoop &l0 = mLoops[below][lowerLoop], &l1 = middle.loops[first->above[0]], &l2 = mLoops[above][upperLoop];
+    const int directions = 4 * profileDirections();
+    const std::array<RadialProfile, 3> fine{radialProfile(l0.view, directions), radialProfile(l1.view, directions),
+                                            radialProfile(l2.view, directions)};
+    const auto alone = [](const SliceLoop& l, const RadialProfile& profile) {
+        return PlaneLoops{0.0, {&l.loop}, {l.view.center}, {&profile}};
+    };
+    if (strayFromBand(alone(l0, fine[0]), 0, alone(l1, fine[1]), 0, alone(l2, fine[2]), 0) <= kBandStray) return true;
     // A plane of that loop alone: the slab's other pieces do not pass through it.
     mPositions.push_back(middle.w);
     mLoops.push_back({middle.loops[static_cast<std::size_t>(first->above[0])]});

@@ -1407,6 +1407,16 @@ TEST(Graph, ABandThePlanesOfAHalvedSlabCutAnewIsAskedToo)
     expectTopLevelWithinAVoxelAlong(smokeCrop({31, 104, 32}, {76, 146, 80}, 0.1), Axis::Z);
 }
 
+// A crop at iso 0.1 along y, sliced 2 voxels apart: the voxel plane y = 32 between two slices
+// has a pit a pixel wide in a contour, 1.3 pixels deep, which the band from 31 to 33 fills: 1.14
+// voxels off at the top level. Measured along the profiles' 64 directions, the middle plane's
+// loop lay 0.88 pixel from the band; along 256 it lies 1.12, and the band takes that plane
+// (Reconstruction::splitBand).
+TEST(Graph, APitAPixelWideBetweenSlicesSplitsItsBand)
+{
+    expectTopLevelWithinAVoxelAlong(smokeCrop({39, 19, 15}, {79, 60, 53}, 0.1), Axis::Y);
+}
+
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
 // half its time).
 TEST(Graph, NoRegionLiesBetweenThePlanesOfTheSmoothSamples)
