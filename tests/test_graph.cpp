@@ -1417,6 +1417,19 @@ TEST(Graph, APitAPixelWideBetweenSlicesSplitsItsBand)
     expectTopLevelWithinAVoxelAlong(smokeCrop({39, 19, 15}, {79, 60, 53}, 0.1), Axis::Y);
 }
 
+// Known gap of issue 13 (README, the crop survey), strict and registered with ctest as an expected
+// failure (CMakeLists.txt). Survey crop 124/12, at iso 0.1 along z: a band in a slab a voxel thick
+// (z = 82 to 83) between contours whose shapes differ by 2.06 pixels, under the 3 that has a band
+// tiled while the skeleton is decided (Reconstruction::shapeMayStray), and whose middle plane's
+// loop keeps within a pixel of its straight surface, is tiled across a corner of the surface: 1.04
+// voxels off at the top level. Asking bands that change by 2 pixels brings it to 0.78, but more
+// bands take their cells at every level: the capsule sliced along x went from 2.48 to 8.42 voxels
+// off at level 0.
+TEST(KnownGap, ABandWhoseShapeChangesByTwoPixelsIsWithinAVoxel)
+{
+    expectTopLevelWithinAVoxelAlong(smokeCrop({61, 122, 61}, {84, 164, 100}, 0.1), Axis::Z);
+}
+
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
 // half its time).
 TEST(Graph, NoRegionLiesBetweenThePlanesOfTheSmoothSamples)

@@ -860,3 +860,15 @@ TEST(KnownGap, TheSmokeAtItsReadmeIsovalueHasNoNeedlesAlongXAndZ)
     expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb", true, Axis::X, 0.1);
     expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb", true, Axis::Z, 0.1);
 }
+
+// No needle over 100 on the CIP cone vessel sliced across its length, along x or y (along z, its
+// default axis, none: NoNeedlesOnTheRealData): 174 and 113 at levels 1 and 2 along x, 113 at level
+// 2 along y. Its sections are wedges some 300 voxels long whose tip, at z = 35, recedes 7 voxels
+// from one plane to the next half a voxel on: the surface there lies nearly in the slicing plane,
+// as the phantom's flat top does sliced along y, and the coarse levels' few rays join the tip to
+// crossings 120 voxels up its sides.
+TEST(KnownGap, TheConeVesselSlicedAcrossItsLengthHasNoNeedles)
+{
+    expectNoNeedlesOnRealData("cip_cone_vessel_density.vdb", true, Axis::X);
+    expectNoNeedlesOnRealData("cip_cone_vessel_density.vdb", true, Axis::Y);
+}
