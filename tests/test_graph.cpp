@@ -1422,9 +1422,11 @@ TEST(Graph, APitAPixelWideBetweenSlicesSplitsItsBand)
 // (z = 82 to 83) between contours whose shapes differ by 2.06 pixels, under the 3 that has a band
 // tiled while the skeleton is decided (Reconstruction::shapeMayStray), and whose middle plane's
 // loop keeps within a pixel of its straight surface, is tiled across a corner of the surface: 1.04
-// voxels off at the top level. Asking bands that change by 2 pixels brings it to 0.78, but more
-// bands take their cells at every level: the capsule sliced along x went from 2.48 to 8.42 voxels
-// off at level 0.
+// voxels off at the top level. Asking bands that change by 2 pixels from their own contours brings
+// it to 0.78, but more bands take their cells at every level: the capsule sliced along x went from
+// 2.48 to 8.42 voxels off at level 0. Asked as the top level tiles them, they give 0.78 too and
+// change no other mesh of the evaluation but the smoke's, by 0.006% of its triangles, for 30 to
+// 45% more of the smoke's time at its default isovalue.
 TEST(KnownGap, ABandWhoseShapeChangesByTwoPixelsIsWithinAVoxel)
 {
     expectTopLevelWithinAVoxelAlong(smokeCrop({61, 122, 61}, {84, 164, 100}, 0.1), Axis::Z);
