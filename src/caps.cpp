@@ -410,8 +410,12 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // (the bean's tilted domes: 0.12 voxel); half a voxel or more is an end the axis left early
     // (the C twisting 15 degrees per voxel: its top apex 0.33 voxel past the last slice, its flat
     // end 1.0, capped at the slice without an end contour).
+    // Half a voxel of the smallest edge, the unit of the top level's bound: along an axis whose
+    // voxels are longer, fewer of its own (the vmtk aorta sliced along z, voxels 1.5 long and 0.88
+    // across: a crop's floor reaching 0.45 voxel of z past the apex was capped 1.25 voxels off).
     constexpr double kCapSlack = 0.5;
-    const double wTarget = reaches && direction * (wFar - wApex) > kCapSlack ? wFar : wApex;
+    const double slack = kCapSlack * mVolume.smallestVoxel() / mVolume.voxelSize()[static_cast<int>(mPlan.axis)];
+    const double wTarget = reaches && direction * (wFar - wApex) > slack ? wFar : wApex;
     // The end band is held to the bands' rule (correspond): halved, until a quarter voxel or less,
     // while it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
     // degrees of turn in one step, was 1.07 voxels off), or would fan a part of the last contour

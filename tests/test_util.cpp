@@ -553,11 +553,14 @@ void writeCroppedVdb(const std::string& source, const std::string& path, const g
     crop->setTransform(grid->transform().copy());
     auto from = grid->getConstAccessor();
     auto to = crop->getAccessor();
+    // Every value that is not the background, active or not: a level set's inside beyond its
+    // narrow band is inactive at minus the background, and stays inside.
     for (int i = lo.x; i <= hi.x; ++i)
         for (int j = lo.y; j <= hi.y; ++j)
             for (int k = lo.z; k <= hi.z; ++k) {
                 const openvdb::Coord ijk(i, j, k);
-                if (from.isValueOn(ijk)) to.setValue(ijk, from.getValue(ijk));
+                if (from.isValueOn(ijk) || from.getValue(ijk) != grid->background())
+                    to.setValue(ijk, from.getValue(ijk));
             }
     writeGridsVdb(path, {crop});
 }

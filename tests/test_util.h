@@ -154,7 +154,8 @@ void writeTubeFogVdb(const std::string& path, double hotValue = 0.0);
 /// A fog "density" over [0, dims), every voxel active, of the value `density` gives it.
 void writeFogVoxelsVdb(const std::string& path, const glm::ivec3& dims,
                        const std::function<float(int x, int y, int z)>& density);
-/// The first float grid of `source`, only its active voxels inside the index box [lo, hi] kept,
+/// The first float grid of `source`, only its voxels inside the index box [lo, hi] that are active
+/// or hold another value than the background (a level set's inside) kept,
 /// written to `path` with the same name, class and transform: a piece of real data.
 void writeCroppedVdb(const std::string& source, const std::string& path, const glm::ivec3& lo, const glm::ivec3& hi);
 /// A level set "spheres": two spheres of radius 5 (voxel 1, half-width 3) centred at (0, 0, zA)

@@ -14,8 +14,12 @@ from seeds 101 to 110 with 15 runs each, 12 for seed 103.
 With --validate, each run meshes 4 levels with `--validate`: every level must also be closed,
 manifold and oriented, and the runs whose top level is more than a voxel from the isosurface
 (symmetric Hausdorff distance) are printed with that distance; the README's "fresh survey" is
-seeds 106 to 110 with 15 runs each. Debian's python3 with python3-openvdb and python3-numpy
-(tools/dev.sh installs both)."""
+seeds 106 to 110 with 15 runs each.
+
+With --data FILE (a level set, such as ../shared/data/real/vmtk_aorta_ls.vdb), the crops are of
+that grid instead, 20 to 60 voxels a side, at its zero level; what lies outside the box is the
+background, so the box cuts the object square. Debian's python3 with python3-openvdb and
+python3-numpy (tools/dev.sh installs both)."""
 import json
 import os
 import random
@@ -53,23 +57,29 @@ def topology(points, faces):
 def main():
     validate = '--validate' in sys.argv
     args = [a for a in sys.argv[1:] if a != '--validate']
+    data = SMOKE
+    if '--data' in args:
+        data = args.pop(args.index('--data') + 1)
+        args.remove('--data')
+    level_set = data != SMOKE
     seed, runs = int(args[0]), int(args[1])
     exe = args[2] if len(args) > 2 else os.path.join(HERE, '..', 'build', 'pipetile')
     levels_wanted = ['--levels', '4', '--validate'] if validate else ['--levels', '2']
     distances = []
-    grid = vdb.read(SMOKE, vdb.readAllGridMetadata(SMOKE)[0].name)
+    grid = vdb.read(data, vdb.readAllGridMetadata(data)[0].name)
     lo, hi = grid.evalActiveVoxelBoundingBox()
     rng = random.Random(seed)
     matched = total = 0
     with tempfile.TemporaryDirectory() as work:
         for run in range(runs):
-            size = [rng.randint(20, 50) for _ in range(3)]
+            size = [rng.randint(20, 60 if level_set else 50) for _ in range(3)]
             a = [rng.randint(lo[k], max(lo[k], hi[k] - size[k])) for k in range(3)]
             b = [a[k] + size[k] for k in range(3)]
-            iso = rng.choice([0.1, 0.2, 0.3])
-            values = np.zeros([b[k] - a[k] + 1 for k in range(3)], np.float32)
+            iso = 0.0 if level_set else rng.choice([0.1, 0.2, 0.3])
+            # A level set's inside beyond its narrow band is inactive at minus the background.
+            values = np.full([b[k] - a[k] + 1 for k in range(3)], grid.background, np.float32)
             grid.copyToArray(values, ijk=tuple(a))
-            crop = vdb.FloatGrid(0.0)
+            crop = vdb.FloatGrid(grid.background)
             crop.copyFromArray(values, ijk=tuple(a), tolerance=0.0)
             crop.transform = grid.transform
             crop.gridClass = grid.gridClass
