@@ -239,6 +239,15 @@ constexpr double kOutOfRegister = 3.0;
 // slice spacing; a twisted flat end needs one, a long oblique one two).
 constexpr int kMostEndContours = 8;
 
+// Whether a cap on the loop seen as `view` fans round its apex: the loop is star-shaped from its
+// central point with the finest rays (a ray crossing it more than once would at every finer level
+// too). Else the cap is ear-clipped, flat in the loop's plane.
+bool fansRoundItsApex(const LoopView& view, const RaySet& finest, const SlicePlane& plane)
+{
+    const Contour c = castRays(view, finest, plane);
+    return !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
+}
+
 // The graph ends a tube inside the slab up to the next plane: what the axis meets more than half a
 // voxel past that plane is another piece's region (the labelling parts them where the field along
 // one line does not), and end contours that followed it stacked 8 deep inside the smoke's blob.
@@ -415,7 +424,11 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // across: a crop's floor reaching 0.45 voxel of z past the apex was capped 1.25 voxels off).
     constexpr double kCapSlack = 0.5;
     const double slack = kCapSlack * mVolume.smallestVoxel() / mVolume.voxelSize()[static_cast<int>(mPlan.axis)];
-    const double wTarget = reaches && direction * (wFar - wApex) > slack ? wFar : wApex;
+    // A cap that will be ear-clipped flat (its contour not star-shaped) has no apex to reach past
+    // it: its end contour goes to the farthest reach whatever the slack (an aorta crop's top end
+    // was capped flat 0.54 voxel of z under where the region reached, 1.36 voxels off; 0.86 now).
+    const bool flat = !fansRoundItsApex(member.view, RaySet{mOptions.baseRays, mOptions.levels - 1}, plane);
+    const double wTarget = reaches && (flat || direction * (wFar - wApex) > slack) ? wFar : wApex;
     // The end band is held to the bands' rule (correspond): halved, until a quarter voxel or less,
     // while it pairs points more than 3 pixels apart on average (the twisting C's end band, 17.5
     // degrees of turn in one step, was 1.07 voxels off), or would fan a part of the last contour
@@ -671,8 +684,7 @@ void Reconstruction::closeEnds()
             if (!end.hasApex) continue;
             const auto [s, l] = top ? tube.members.back() : tube.members.front();
             const SlicePlane plane(mVolume, mPlan, mPositions[s]);
-            const Contour c = castRays(mLoops[s][l].view, finest, plane);
-            end.fan = !c.crossings.empty() && countEdges(c, EdgeType::Forward) == static_cast<int>(c.edges.size());
+            end.fan = fansRoundItsApex(mLoops[s][l].view, finest, plane);
         }
     }
     // A lone contour closed flat on both sides would get the same triangles twice. It is a speck
