@@ -424,8 +424,9 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // across: a crop's floor reaching 0.45 voxel of z past the apex was capped 1.25 voxels off).
     constexpr double kCapSlack = 0.5;
     const double slack = kCapSlack * mVolume.smallestVoxel() / mVolume.voxelSize()[static_cast<int>(mPlan.axis)];
-    // A cap that will be ear-clipped flat (its contour not star-shaped) has no apex to reach past
-    // it: its end contour goes to the farthest reach whatever the slack (an aorta crop's top end
+    // A contour that is not star-shaped from its central point would be capped flat in its plane
+    // by ear clipping, and so, most likely, would its end contour: no apex reaches past that cap,
+    // and the end contour goes to the farthest reach whatever the slack (an aorta crop's top end
     // was capped flat 0.54 voxel of z under where the region reached, 1.36 voxels off; 0.86 now).
     const bool flat = !fansRoundItsApex(member.view, RaySet{mOptions.baseRays, mOptions.levels - 1}, plane);
     const double wTarget = reaches && (flat || direction * (wFar - wApex) > slack) ? wFar : wApex;
