@@ -16,9 +16,9 @@ manifold and oriented, and the runs whose top level is more than a voxel from th
 (symmetric Hausdorff distance) are printed with that distance; the README's "fresh survey" is
 seeds 106 to 110 with 15 runs each.
 
-With --data FILE (a level set, such as ../shared/data/real/vmtk_aorta_ls.vdb), the crops are of
-that grid instead, 20 to 60 voxels a side, at its zero level; what lies outside the box is the
-background, so the box cuts the object square. Debian's python3 with python3-openvdb and
+With --data FILE, the crops are of that grid instead; a level set's (such as
+../shared/data/real/vmtk_aorta_ls.vdb) are 20 to 60 voxels a side, at its zero level, and what
+lies outside the box is the background, so the box cuts the object square. Debian's python3 with python3-openvdb and
 python3-numpy (tools/dev.sh installs both)."""
 import json
 import os
@@ -61,12 +61,12 @@ def main():
     if '--data' in args:
         data = args.pop(args.index('--data') + 1)
         args.remove('--data')
-    level_set = data != SMOKE
     seed, runs = int(args[0]), int(args[1])
     exe = args[2] if len(args) > 2 else os.path.join(HERE, '..', 'build', 'pipetile')
     levels_wanted = ['--levels', '4', '--validate'] if validate else ['--levels', '2']
     distances = []
     grid = vdb.read(data, vdb.readAllGridMetadata(data)[0].name)
+    level_set = grid.gridClass == 'level set'
     lo, hi = grid.evalActiveVoxelBoundingBox()
     rng = random.Random(seed)
     matched = total = 0
