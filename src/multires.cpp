@@ -2163,11 +2163,15 @@ Reconstruction::strayingPieces(const std::vector<std::pair<double, double>>& ran
             if (!overlapsAny(ranges, std::min(w0, w1), std::max(w0, w1))) continue;
             const SliceLoop &below = mLoops[lower.first][lower.second], &above = mLoops[upper.first][upper.second];
             const double thickness = std::abs(w1 - w0);
-            if (thickness <= kEventThickness || endOfBand.count(slab.lower) > 0) {
-                if (thickness > 0.0 && shapeMayStray(below, above)) levelBands.emplace(lower, slab);
+            const bool shapeChanges = shapeMayStray(below, above);
+            // A band near the bound in the graph's measure whose shape keeps (splitBand), asked as
+            // the top level tiles it: its own two contours tiled alone stray more (below).
+            const bool near = !shapeChanges && mNearBands.count(lower) > 0;
+            if (thickness <= kEventThickness || endOfBand.count(slab.lower) > 0 || near) {
+                if (thickness > 0.0 && (shapeChanges || near)) levelBands.emplace(lower, slab);
                 continue;
             }
-            if (!shapeMayStray(below, above)) continue;
+            if (!shapeChanges) continue;
             const Contour& a = contourOf(lower);
             const Contour& b = contourOf(upper);
             if (a.crossings.empty() || b.crossings.empty()) continue;

@@ -463,6 +463,9 @@ private:
     std::optional<EulerProfile> mCells; // counted where the graph needed it (correspond())
     ReconstructionStats mStats;
     StrayingPieces mCellPieces;
+    // Bands whose middle plane splitBand measured within a pixel of the bound but under it: their
+    // top level's own tiling settles it (strayingPieces). The lower contour's plane and loop.
+    std::set<std::pair<int, int>> mNearBands;
 };
 
 /// Stateful: the contours of the current level, refined in place to the next (paper §4.3). Each
