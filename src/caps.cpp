@@ -290,7 +290,7 @@ int nearest(int count, const glm::dvec2& target, const PointOf& pointOf, const A
 } // namespace
 
 std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int l, bool hole, double w,
-                                                                      const std::pair<int, int>& onGraph)
+                                                                      const std::pair<int, int>& onGraph, bool& parted)
 {
     const SliceLoop& member = mLoops[s][l];
     std::vector<BoundaryLoop> loops = traceBoundaries(SlicePlane(mVolume, mPlan, w));
@@ -298,16 +298,18 @@ std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int
     // (the smoke: a speck of one voxel, capped, took the 168-pixel loop of the web around it half
     // a voxel on as its end contour, and its band fanned that whole loop to the speck, 2.5 voxels
     // inside the solid).
+    const auto continues = [&](int k) {
+        const BoundaryLoop& candidate = loops[k];
+        return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
+               (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
+                overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
+               !sharedWithOthers(onGraph.first, onGraph.second, candidate);
+    };
     const int best = nearest(
-        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
-        [&](int k) {
-            const BoundaryLoop& candidate = loops[k];
-            return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
-                   (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
-                    overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
-                   !sharedWithOthers(onGraph.first, onGraph.second, candidate);
-        });
+        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; }, continues);
     if (best < 0) return std::nullopt;
+    parted = false;
+    for (int k = 0; k < static_cast<int>(loops.size()); ++k) parted |= k != best && continues(k);
     // Its own central point, from which the apex is highest on a rounded end; but where
     // the band from the last contour to it would pair points more than 3 pixels apart on
     // average (as bands may change shape, correspond), the point that follows the last
@@ -423,7 +425,8 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // voxels are longer, fewer of its own (the vmtk aorta sliced along z, voxels 1.5 long and 0.88
     // across: a crop's floor reaching 0.45 voxel of z past the apex was capped 1.25 voxels off).
     constexpr double kCapSlack = 0.5;
-    const double slack = kCapSlack * mVolume.smallestVoxel() / mVolume.voxelSize()[static_cast<int>(mPlan.axis)];
+    const double axisVoxel = mVolume.smallestVoxel() / mVolume.voxelSize()[static_cast<int>(mPlan.axis)];
+    const double slack = kCapSlack * axisVoxel;
     // A contour that is not star-shaped from its central point would be capped flat in its plane
     // by ear clipping, and so, most likely, would its end contour: no apex reaches past that cap,
     // and the end contour goes to the farthest reach whatever the slack (an aorta crop's top end
@@ -443,13 +446,18 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // instead (a crop of the smoke: an arm of a contour of 235 pixels ends within a quarter voxel,
     // and the band to an end contour of 56 fanned the arm's crossings across air to one point,
     // 2.30 voxels off; capped at the contour, 0.76).
-    double step = std::min(direction * (wTarget - plane.w()) - kEndInset, mOptions.slicing.spacingVoxels);
+    // The inset and the shortest step are quarter voxels of the smallest edge too (another crop
+    // of the aorta: a sliver along a face of its box reaching 0.4 voxel of z past its last slice,
+    // too close for an end contour a quarter voxel of z inside, was capped flat at the slice, 1.13
+    // voxels off).
+    const double inset = kEndInset * axisVoxel, shortest = 0.25 * axisVoxel;
+    double step = std::min(direction * (wTarget - plane.w()) - inset, mOptions.slicing.spacingVoxels);
     // From a voxel plane, the first end contour goes no farther than the next voxel plane, which
     // the end's band would otherwise pass by: a crop of the smoke starts a tube at y = 100 whose
     // region at 99 reaches 4 voxels past its contour, a ledge barely past the isovalue that
     // neither 100 nor an end contour at 98.6 shows (2.48 voxels off at the top level, now 0.83).
     if (plane.w() == std::floor(plane.w())) step = std::min(step, 1.0);
-    if (step < 0.25) return false;
+    if (step < shortest) return false;
     // An end contour's plane holds it alone: the loops it must keep off are those of the tube's
     // last plane of the graph (the smoke at iso 0.1: a speck's second end contour took a ring of
     // 1698 pixels around another object's hole, capped flat 5.7 voxels off the surface).
@@ -459,13 +467,22 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
                widestGapToward(member.view, end.view, kOutOfRegister) > kOutOfRegister ||
                widestGapToward(end.view, member.view, kOutOfRegister) > kOutOfRegister;
     };
-    std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph);
+    // Where the end's region has parted into several summits by the end contour's plane, the
+    // contour keeps one and the band to it cuts the others off: halved too, the end contour holds
+    // them all where a plane closer in still joins them (a crop of the vmtk aorta at a corner of
+    // its box: a summit 0.2 voxel of z higher than the end contour at 21.55, cut off from z = 21 up,
+    // 1.18 voxels off at the top level).
+    bool parted = false;
+    std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph, parted);
     bool apart = endLoop && outOfRegister(*endLoop);
-    while (endLoop && step > 0.25 && apart) {
-        std::optional<SliceLoop> closer = endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step, onGraph);
+    while (endLoop && step > shortest && (apart || parted)) {
+        bool closerParted = false;
+        std::optional<SliceLoop> closer =
+            endContourAt(s, l, tube.hole, plane.w() + direction * 0.5 * step, onGraph, closerParted);
         if (!closer) break;
         endLoop = std::move(closer);
         apart = outOfRegister(*endLoop);
+        parted = closerParted;
         step *= 0.5;
     }
     end.unregistered = endLoop && apart;

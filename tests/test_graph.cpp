@@ -1442,6 +1442,24 @@ TEST(Graph, AFlatCapsEndContourGoesToTheFarthestReach)
     expectTopLevelWithinAVoxelAlong(realCrop("vmtk_aorta_ls.vdb", {75, 119, 5}, {95, 157, 61}, std::nullopt), Axis::Z);
 }
 
+// A crop of the aorta along z (survey seed 2, run 0), at a corner of its box: the region past a
+// tube's last slice, z = 21, parts into two summits by z = 21.55, where the end contour kept the
+// larger, and the band to it cut the other off, 0.2 voxel of z higher: 1.18 voxels off at the top
+// level. The end contour is halved back to a plane that still joins them (addEndContour).
+TEST(Graph, AnEndContourHoldsEverySummitOfItsEnd)
+{
+    expectTopLevelWithinAVoxelAlong(realCrop("vmtk_aorta_ls.vdb", {64, 101, 5}, {87, 126, 30}, std::nullopt), Axis::Z);
+}
+
+// Another (seed 3, run 4): a sliver along a face of the box reaches 0.4 voxel of z past the last
+// slice, under the quarter voxel of z inside it that an end contour keeps and the quarter voxel it
+// steps at least: capped flat at the slice, 1.12 voxels off. Both are quarters of the smallest edge
+// now, and the end contour holds the sliver's summits (above): 0.91.
+TEST(Graph, AnEndsInsetIsAQuarterOfTheSmallestVoxelEdge)
+{
+    expectTopLevelWithinAVoxelAlong(realCrop("vmtk_aorta_ls.vdb", {77, 155, 5}, {97, 179, 35}, std::nullopt), Axis::Z);
+}
+
 // Survey crop 124/12, at iso 0.1 along z: a band in a slab a voxel thick (z = 82 to 83) between
 // contours whose shapes differ by 2.06 pixels, under the 3 that has a band asked while the skeleton
 // is decided (Reconstruction::shapeMayStray). Its middle plane's loop lies 0.87 pixel from its

@@ -439,8 +439,10 @@ private:
     /// The contour on plane w that continues loop l of plane s past its tube's end, centred as a
     /// band to it pairs best; none if no loop there overlaps it and no other loop of the plane of
     /// `onGraph` (the tube's end contour on a plane of the graph: s and l, or those of an end
-    /// contour before).
-    std::optional<SliceLoop> endContourAt(int s, int l, bool hole, double w, const std::pair<int, int>& onGraph);
+    /// contour before). `parted`: whether other loops there overlap it too (the end's region has
+    /// parted into several summits by w, and the contour keeps one).
+    std::optional<SliceLoop> endContourAt(int s, int l, bool hole, double w, const std::pair<int, int>& onGraph,
+                                          bool& parted);
     /// Whether `candidate` overlaps a loop of plane s other than l (of its kind): the slab keeps
     /// those on other pieces than l's, so it is no end contour of l's tube.
     bool sharedWithOthers(int s, int l, const BoundaryLoop& candidate) const;
