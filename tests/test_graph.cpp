@@ -1472,6 +1472,26 @@ TEST(Graph, ABandNearTheBoundIsAskedAsTheTopLevelTilesIt)
     expectTopLevelWithinAVoxelAlong(smokeCrop({61, 122, 61}, {84, 164, 100}, 0.1), Axis::Z);
 }
 
+// Known gaps of issue 13 (README, the crop survey), strict and registered with ctest as expected
+// failures (CMakeLists.txt).
+
+// Survey crop 116/10, at iso 0.2 along y: the smoke cut by the crop's last plane, y = 94, is capped
+// by a fan from that plane's contour to a point at 94.21 that passes over pixels of the plane where
+// the field is 0.17 to 0.18, outside, between two lobes: 1.004 voxels off at the top level.
+TEST(KnownGap, AnEndAtACropsFaceKeepsOffItsNotches)
+{
+    expectTopLevelWithinAVoxelAlong(smokeCrop({37, 61, 46}, {79, 94, 76}, 0.2), Axis::Y);
+}
+
+// The first of the aorta's crops above (seed 2, run 0) sliced along x: a band a voxel thick between x = 73 and 74 whose contours
+// part by about a pixel of z where the box's face y = 126 meets the vessel's top, 1.07 voxels off.
+// The bands' measures (kBandStray, kShapeChange) count pixels of the slicing plane, and a pixel of
+// z here is 1.7 of the smallest edge, the bound's unit.
+TEST(KnownGap, ABandAcrossLongVoxelsIsWithinAVoxel)
+{
+    expectTopLevelWithinAVoxelAlong(realCrop("vmtk_aorta_ls.vdb", {64, 101, 5}, {87, 126, 30}, std::nullopt), Axis::X);
+}
+
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
 // half its time).
 TEST(Graph, NoRegionLiesBetweenThePlanesOfTheSmoothSamples)

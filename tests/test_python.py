@@ -202,13 +202,15 @@ def test_numpy_fog_equals_the_vdb(tmp_path):
 
 
 def test_anisotropic_voxels_place_vertices_in_world_space(tmp_path):
-    # The same density with voxels twice as long in z lands at twice the z, the same x and y.
+    # The same density with voxels twice as long in y lands at twice the y, the same x and z. (Across
+    # the slicing axis: along it, end contours keep quarters of the smallest voxel edge inside the
+    # end, fewer voxels of a longer axis, and the mesh in index space differs.)
     density = capsule_density()
     unit = pipetile.mesh(density, grid_class="fog", axis="z", levels=1)
-    stretched = pipetile.mesh(density, grid_class="fog", axis="z", levels=1, voxel_size=(1, 1, 2), origin=(5, 0, 0))
+    stretched = pipetile.mesh(density, grid_class="fog", axis="z", levels=1, voxel_size=(1, 2, 1), origin=(5, 0, 0))
     assert np.array_equal(stretched.vertices[:, 0], unit.vertices[:, 0] + 5)
-    assert np.array_equal(stretched.vertices[:, 1], unit.vertices[:, 1])
-    assert np.array_equal(stretched.vertices[:, 2], unit.vertices[:, 2] * 2)
+    assert np.array_equal(stretched.vertices[:, 1], unit.vertices[:, 1] * 2)
+    assert np.array_equal(stretched.vertices[:, 2], unit.vertices[:, 2])
 
 
 # --- Validation -------------------------------------------------------------------------------
