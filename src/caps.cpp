@@ -448,7 +448,7 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // 2.30 voxels off; capped at the contour, 0.76).
     // The inset and the shortest step are quarter voxels of the smallest edge too (another crop
     // of the aorta: a sliver along a face of its box reaching 0.4 voxel of z past its last slice,
-    // too close for an end contour a quarter voxel of z inside, was capped flat at the slice, 1.13
+    // too close for an end contour a quarter voxel of z inside, was capped flat at the slice, 1.12
     // voxels off).
     const double inset = kEndInset * axisVoxel, shortest = 0.25 * axisVoxel;
     double step = std::min(direction * (wTarget - plane.w()) - inset, mOptions.slicing.spacingVoxels);
@@ -468,10 +468,10 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
                widestGapToward(end.view, member.view, kOutOfRegister) > kOutOfRegister;
     };
     // Where the end's region has parted into several summits by the end contour's plane, the
-    // contour keeps one and the band to it cuts the others off: halved too, the end contour holds
-    // them all where a plane closer in still joins them (a crop of the vmtk aorta at a corner of
-    // its box: a summit 0.2 voxel of z higher than the end contour at 21.55, cut off from z = 21 up,
-    // 1.18 voxels off at the top level).
+    // contour keeps one and the band to it cuts the others off: halved too, down to the shortest
+    // step, the end contour holds them all where a plane closer in still joins them (a crop of
+    // the vmtk aorta at a corner of its box: a summit 0.2 voxel of z higher than the end contour
+    // at 21.55, cut off from z = 21 up, 1.18 voxels off at the top level).
     bool parted = false;
     std::optional<SliceLoop> endLoop = endContourAt(s, l, tube.hole, plane.w() + direction * step, onGraph, parted);
     bool apart = endLoop && outOfRegister(*endLoop);

@@ -465,8 +465,9 @@ private:
     std::optional<EulerProfile> mCells; // counted where the graph needed it (correspond())
     ReconstructionStats mStats;
     StrayingPieces mCellPieces;
-    // Bands whose middle plane splitBand measured within a pixel of the bound but under it: their
-    // top level's own tiling settles it (strayingPieces). The lower contour's plane and loop.
+    // Bands whose middle plane's loop splitBand measured more than half a pixel from them, under
+    // the pixel that splits them: the top level's own tiling settles it (strayingPieces). The
+    // lower contour's plane and loop.
     std::set<std::pair<int, int>> mNearBands;
 };
 
