@@ -228,8 +228,10 @@ std::vector<Triangle> earClip(const std::vector<glm::dvec2>& p)
 
 namespace {
 
-// End contours sit a quarter voxel inside where the object ends (addEndContour).
+// End contours sit a quarter voxel inside where the object ends, and an end contour lies at least
+// a quarter voxel past the contour before it (addEndContour).
 constexpr double kEndInset = 0.25;
+constexpr double kShortestEndStep = 0.25;
 
 // Pixels apart, on average, that a band to an end contour may pair points (misregistration): the
 // bands' own bound on shape change (correspond).
@@ -298,18 +300,20 @@ std::optional<Reconstruction::SliceLoop> Reconstruction::endContourAt(int s, int
     // (the smoke: a speck of one voxel, capped, took the 168-pixel loop of the web around it half
     // a voxel on as its end contour, and its band fanned that whole loop to the speck, 2.5 voxels
     // inside the solid).
-    const auto continues = [&](int k) {
+    // Each loop asked once: the pixel overlaps are the cost.
+    std::vector<char> continues(loops.size());
+    for (std::size_t k = 0; k < loops.size(); ++k) {
         const BoundaryLoop& candidate = loops[k];
-        return candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
-               (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
-                overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
-               !sharedWithOthers(onGraph.first, onGraph.second, candidate);
-    };
+        continues[k] = candidate.hole() == hole && std::abs(candidate.area) >= mOptions.minContourArea &&
+                       (encloses(candidate, member.view.center) || encloses(member.loop, candidate.centroid) ||
+                        overlapPixels(member.loop, candidate, glm::ivec2(0)) > 0) &&
+                       !sharedWithOthers(onGraph.first, onGraph.second, candidate);
+    }
     const int best = nearest(
-        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; }, continues);
+        static_cast<int>(loops.size()), member.view.center, [&](int k) { return loops[k].centroid; },
+        [&](int k) { return continues[static_cast<std::size_t>(k)] != 0; });
     if (best < 0) return std::nullopt;
-    parted = false;
-    for (int k = 0; k < static_cast<int>(loops.size()); ++k) parted |= k != best && continues(k);
+    parted = std::count(continues.begin(), continues.end(), 1) > 1;
     // Its own central point, from which the apex is highest on a rounded end; but where
     // the band from the last contour to it would pair points more than 3 pixels apart on
     // average (as bands may change shape, correspond), the point that follows the last
@@ -450,7 +454,7 @@ bool Reconstruction::addEndContour(Tube& tube, bool top, bool probeAnyway)
     // of the aorta: a sliver along a face of its box reaching 0.4 voxel of z past its last slice,
     // too close for an end contour a quarter voxel of z inside, was capped flat at the slice, 1.12
     // voxels off).
-    const double inset = kEndInset * axisVoxel, shortest = 0.25 * axisVoxel;
+    const double inset = kEndInset * axisVoxel, shortest = kShortestEndStep * axisVoxel;
     double step = std::min(direction * (wTarget - plane.w()) - inset, mOptions.slicing.spacingVoxels);
     // From a voxel plane, the first end contour goes no farther than the next voxel plane, which
     // the end's band would otherwise pass by: a crop of the smoke starts a tube at y = 100 whose

@@ -18,8 +18,8 @@ seeds 106 to 110 with 15 runs each.
 
 With --data FILE, the crops are of that grid instead; a level set's (such as
 ../shared/data/real/vmtk_aorta_ls.vdb) are 20 to 60 voxels a side, at its zero level, and what
-lies outside the box is the background, so the box cuts the object square. Debian's python3 with python3-openvdb and
-python3-numpy (tools/dev.sh installs both)."""
+lies outside the box is the background, so the box cuts the object square. Debian's python3
+with python3-openvdb and python3-numpy (tools/dev.sh installs both)."""
 import json
 import os
 import random
