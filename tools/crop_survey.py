@@ -13,8 +13,9 @@ from seeds 101 to 110 with 15 runs each, 12 for seed 103.
 
 With --validate, each run meshes 4 levels with `--validate`: every level must also be closed,
 manifold and oriented, and the runs whose top level is more than a voxel from the isosurface
-(symmetric Hausdorff distance) are printed with that distance; the README's "fresh survey" is
-seeds 106 to 110 with 15 runs each.
+(symmetric Hausdorff distance) are printed with that distance, and the runs with a triangle of
+aspect ratio over 100 at some level (issue 17's bound) with each level's largest; the README's
+"fresh survey" is seeds 106 to 110 with 15 runs each.
 
 With --data FILE, the crops are of that grid instead; a level set's (such as
 ../shared/data/real/vmtk_aorta_ls.vdb) are 20 to 60 voxels a side, at its zero level, and what
@@ -69,7 +70,7 @@ def main():
     level_set = grid.gridClass == 'level set'
     lo, hi = grid.evalActiveVoxelBoundingBox()
     rng = random.Random(seed)
-    matched = total = 0
+    matched = total = needles = 0
     with tempfile.TemporaryDirectory() as work:
         for run in range(runs):
             size = [rng.randint(20, 60 if level_set else 50) for _ in range(3)]
@@ -115,10 +116,16 @@ def main():
                     distances.append(reported[-1]['validation']['hausdorff_voxels'])
                     if distances[-1] > 1:
                         print(f'run {run} {box} {axis}: top level {distances[-1]:.2f} voxels off')
+                    aspects = [level['largest_aspect'] for level in reported]
+                    needles += max(aspects) > 100
+                    if max(aspects) > 100:
+                        print(f'run {run} {box} {axis}: largest aspect ratio per level '
+                              f'{", ".join(f"{a:.1f}" for a in aspects)}')
     print(f'seed {seed}: {matched} of {total} runs match')
     if validate:
         print(f'seed {seed}: {sum(d > 1 for d in distances)} of {len(distances)} runs more than a voxel off '
-              f'at the top level, mean {np.mean(distances):.3f} voxel')
+              f'at the top level, mean {np.mean(distances):.3f} voxel; {needles} with a triangle of aspect '
+              f'ratio over 100 at some level')
 
 
 if __name__ == '__main__':
