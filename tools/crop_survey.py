@@ -117,8 +117,8 @@ def main():
                     if distances[-1] > 1:
                         print(f'run {run} {box} {axis}: top level {distances[-1]:.2f} voxels off')
                     aspects = [level['largest_aspect'] for level in reported]
-                    needles += max(aspects) > 100
                     if max(aspects) > 100:
+                        needles += 1
                         print(f'run {run} {box} {axis}: largest aspect ratio per level '
                               f'{", ".join(f"{a:.1f}" for a in aspects)}')
     print(f'seed {seed}: {matched} of {total} runs match')
