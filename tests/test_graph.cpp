@@ -1192,18 +1192,9 @@ TEST(Graph, BudsAtTwoNecksOfABodyCloseByChordsOfTheirOwn)
 
 namespace {
 
-// The smoke's voxels in the index box [lo, hi], read at `iso`.
-// The index box [lo, hi] of the shared real volume `file`, read at `iso` (none: the grid's default).
-Volume realCrop(const char* file, const glm::ivec3& lo, const glm::ivec3& hi, std::optional<double> iso)
-{
-    test::TempDir dir;
-    const std::string path = dir.path("crop.vdb");
-    test::writeCroppedVdb(test::realData(file), path, lo, hi);
-    VolumeOptions read;
-    read.iso = iso;
-    return readVolume(path, read);
-}
+using test::realCrop;
 
+// The smoke's voxels in the index box [lo, hi], read at `iso`.
 Volume smokeCrop(const glm::ivec3& lo, const glm::ivec3& hi, double iso)
 {
     return realCrop("gaffer_smoke_fog.vdb", lo, hi, iso);

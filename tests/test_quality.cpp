@@ -562,12 +562,8 @@ TEST(Quality, NoNeedlesOnTheSmokeAtTheIsovalueItsReadmeGives)
 // lowers the worst aspect ratio around: 63.7 (the speck's three points become one).
 TEST(Quality, AVoxelCornersSpeckLeftByTheLastPassesGoes)
 {
-    test::TempDir dir;
-    const std::string path = dir.path("crop.vdb");
-    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), path, {44, 117, 30}, {79, 150, 77});
-    VolumeOptions read;
-    read.iso = 0.1;
-    expectNoNeedlesOnFourLevels(readVolume(path, read), true, Axis::Z);
+    expectNoNeedlesOnFourLevels(test::realCrop("gaffer_smoke_fog.vdb", {44, 117, 30}, {79, 150, 77}, 0.1), true,
+                                Axis::Z);
 }
 
 TEST(Quality, ANeedleOnAContourEdgeIsFlippedAway)
@@ -901,10 +897,5 @@ TEST(KnownGap, TheConeVesselSlicedAcrossItsLengthHasNoNeedles)
 // link condition), and every other tiling of its fan is flatter (aspect 260).
 TEST(KnownGap, ATendrilLyingInTheSlicingPlaneHasNoNeedles)
 {
-    test::TempDir dir;
-    const std::string path = dir.path("crop.vdb");
-    test::writeCroppedVdb(test::realData("gaffer_smoke_fog.vdb"), path, {27, 22, 45}, {69, 66, 95});
-    VolumeOptions read;
-    read.iso = 0.2;
-    expectNoNeedlesOnFourLevels(readVolume(path, read), true, Axis::Z);
+    expectNoNeedlesOnFourLevels(test::realCrop("gaffer_smoke_fog.vdb", {27, 22, 45}, {69, 66, 95}, 0.2), true, Axis::Z);
 }

@@ -565,6 +565,16 @@ void writeCroppedVdb(const std::string& source, const std::string& path, const g
     writeGridsVdb(path, {crop});
 }
 
+Volume realCrop(const char* file, const glm::ivec3& lo, const glm::ivec3& hi, std::optional<double> iso)
+{
+    TempDir dir;
+    const std::string path = dir.path("crop.vdb");
+    writeCroppedVdb(realData(file), path, lo, hi);
+    VolumeOptions read;
+    read.iso = iso;
+    return readVolume(path, read);
+}
+
 void writeTubeFogVdb(const std::string& path, double hotValue)
 {
     openvdb::initialize();

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -158,6 +159,9 @@ void writeFogVoxelsVdb(const std::string& path, const glm::ivec3& dims,
 /// or hold another value than the background (a level set's inside) kept,
 /// written to `path` with the same name, class and transform: a piece of real data.
 void writeCroppedVdb(const std::string& source, const std::string& path, const glm::ivec3& lo, const glm::ivec3& hi);
+/// The index box [lo, hi] of the shared real volume `file` (writeCroppedVdb), read at `iso` (none:
+/// the grid's default).
+Volume realCrop(const char* file, const glm::ivec3& lo, const glm::ivec3& hi, std::optional<double> iso);
 /// A level set "spheres": two spheres of radius 5 (voxel 1, half-width 3) centred at (0, 0, zA)
 /// and (0, 0, zB) in index space, nothing in between.
 void writeFarSpheresVdb(const std::string& path, int zA, int zB);
