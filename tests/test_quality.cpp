@@ -556,7 +556,7 @@ TEST(Quality, NoNeedlesOnTheSmokeAtTheIsovalueItsReadmeGives)
 
 // A crop of the smoke (crop survey seed 121, run 3) at iso 0.1, sliced along z: at its top level
 // three points within a thousandth of a voxel at a voxel's corner, the one the level below has
-// fanned to the other two alone, held a needle of aspect 1697 on the short edge between those two.
+// a corner of only three triangles, held a needle of aspect 1697 on the short edge between those two.
 // The passes after the collapses (corner removal, flips, fans tiled anew) had made that shape,
 // which no collapse then looked at. The short edges now go once more at the end, where that
 // lowers the worst aspect ratio around: 63.7 (the speck's three points become one).
