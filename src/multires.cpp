@@ -1968,11 +1968,11 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         retileNeedleFans(mesh, 2.0 * reach, bound);
         // The passes since the collapses can leave short edges none of them looked at: three
         // points a thousandth of a voxel apart at a voxel's corner, the one the level below has
-        // a corner of only three triangles (a crop of the smoke: aspect 1697 at its top level). They
-        // go where that lowers the worst aspect ratio around (63.7 there). Over the evaluation's
-        // 81 runs, no distance to the isosurface and no largest aspect ratio moved, and the top
-        // levels lost 0.25% of their triangles (0.6% of those under 5 degrees); without the
-        // lowering, the smoke along z rose from 54 to 74 at its top level.
+        // being a corner of only three triangles (a crop of the smoke: aspect 1697 at its top
+        // level). They go where that lowers the worst aspect ratio around (63.7 there). Over the
+        // evaluation's 81 runs, no distance to the isosurface and no largest aspect ratio moved,
+        // and the top levels lost 0.25% of their triangles (0.6% of those under 5 degrees);
+        // without the lowering, the smoke along z rose from 54 to 74 at its top level.
         NeedleCollapse lastEdges = shortEdges;
         lastEdges.lowerWorst = true;
         collapseNeedleEdges(mesh, shortEdge, coarser, lastEdges);
