@@ -4,6 +4,7 @@ characteristic and components of volumeToMesh's isosurface of the same crop?
 
     python3 tools/crop_survey.py SEED RUNS [PIPETILE]     # PIPETILE: build/pipetile by default
     python3 tools/crop_survey.py SEED RUNS [PIPETILE] --validate
+    python3 tools/crop_survey.py SEED RUNS [PIPETILE] [--validate] --data FILE [--iso V]
 
 Each run draws a box 20 to 50 voxels a side inside the smoke's active box and an isovalue of 0.1,
 0.2 or 0.3, writes the crop (pyopenvdb), meshes it with `--levels 2` along each axis, and compares
@@ -19,8 +20,10 @@ aspect ratio over 100 at some level (issue 17's bound) with each level's largest
 
 With --data FILE, the crops are of that grid instead; a level set's (such as
 ../shared/data/real/vmtk_aorta_ls.vdb) are 20 to 60 voxels a side, at its zero level, and what
-lies outside the box is the background, so the box cuts the object square. Debian's python3
-with python3-openvdb and python3-numpy (tools/dev.sh installs both)."""
+lies outside the box is the background, so the box cuts the object square. With --iso V every run
+uses the isovalue V: a fog volume whose values are not densities needs it (the cone vessel's
+intensities, ../shared/data/real/cip_cone_vessel_density.vdb, at -500). Debian's python3 with
+python3-openvdb and python3-numpy (tools/dev.sh installs both)."""
 import json
 import os
 import random
@@ -62,6 +65,10 @@ def main():
     if '--data' in args:
         data = args.pop(args.index('--data') + 1)
         args.remove('--data')
+    fixed_iso = None
+    if '--iso' in args:
+        fixed_iso = float(args.pop(args.index('--iso') + 1))
+        args.remove('--iso')
     seed, runs = int(args[0]), int(args[1])
     exe = args[2] if len(args) > 2 else os.path.join(HERE, '..', 'build', 'pipetile')
     levels_wanted = ['--levels', '4', '--validate'] if validate else ['--levels', '2']
@@ -77,6 +84,7 @@ def main():
             a = [rng.randint(lo[k], max(lo[k], hi[k] - size[k])) for k in range(3)]
             b = [a[k] + size[k] for k in range(3)]
             iso = 0.0 if level_set else rng.choice([0.1, 0.2, 0.3])
+            iso = iso if fixed_iso is None else fixed_iso
             # A level set's inside beyond its narrow band is inactive at minus the background.
             values = np.full([b[k] - a[k] + 1 for k in range(3)], grid.background, np.float32)
             grid.copyToArray(values, ijk=tuple(a))
