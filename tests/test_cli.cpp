@@ -11,7 +11,6 @@
 #include <nlohmann/json.hpp>
 #include <openvdb/io/File.h>
 #include <openvdb/tools/LevelSetSphere.h>
-#include <openvdb/tools/SignedFloodFill.h>
 
 #include <algorithm>
 #include <csignal>
@@ -689,18 +688,7 @@ TEST(Cli, FarApartSpheresSideBySide)
     GTEST_SKIP() << "an address-space limit cannot be combined with AddressSanitizer's shadow memory";
 #endif
     TempDir dir;
-    openvdb::initialize();
-    const openvdb::FloatGrid::Ptr sphere =
-        openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
-    auto grid = openvdb::FloatGrid::create(sphere->background());
-    grid->setName("spheres");
-    grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    for (int x : {0, 100000000})
-        for (auto it = sphere->cbeginValueOn(); it; ++it) grid->tree().setValue(it.getCoord().offsetBy(x, 0, 0), *it);
-    openvdb::tools::signedFloodFill(grid->tree());
-    openvdb::io::File file(dir.path("side.vdb"));
-    file.write({grid});
-    file.close();
+    test::writeFarSpheresVdb(dir.path("side.vdb"), {0, 0, 0}, {100000000, 0, 0});
     const test::CliResult r = runShell(std::string("ulimit -v 1000000; '") + PIPETILE_CLI + "' mesh '" +
                                        dir.path("side.vdb") + "' --axis z --levels 2 -o '" + dir.path("m.ply") + "'");
     ASSERT_EQ(r.exitCode, 0) << r.err;

@@ -109,7 +109,7 @@ TEST(Slicer, FarApartSpheresCostTheirOwnSlicesNotTheGap)
          std::vector<std::pair<int, int>>{{0, 100000000}, {0, 2000000000}, {-1500000000, 1500000000}}) {
         SCOPED_TRACE(std::to_string(zA) + " and " + std::to_string(zB));
         test::TempDir dir;
-        test::writeFarSpheresVdb(dir.path("far.vdb"), zA, zB);
+        test::writeFarSpheresVdb(dir.path("far.vdb"), {0, 0, zA}, {0, 0, zB});
         const Volume v = readVolume(dir.path("far.vdb"));
         const SlicePlan plan = planSlices(v, {Axis::Auto, 2.0});
         EXPECT_EQ(plan.axis, 2);

@@ -592,10 +592,10 @@ void writeTubeFogVdb(const std::string& path, double hotValue)
     writeGridsVdb(path, {grid});
 }
 
-void writeFarSpheresVdb(const std::string& path, int zA, int zB)
+void writeFarSpheresVdb(const std::string& path, const glm::ivec3& a, const glm::ivec3& b)
 {
     openvdb::initialize();
-    // One sphere at the origin, copied voxel by voxel to both places: building it at z = 1e9
+    // One sphere at the origin, copied voxel by voxel to both places: building it at 1e9 voxels
     // directly would lose its shape to float precision.
     const openvdb::FloatGrid::Ptr sphere =
         openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(5.0f, openvdb::Vec3f(0.0f), 1.0f, 3.0f);
@@ -603,8 +603,8 @@ void writeFarSpheresVdb(const std::string& path, int zA, int zB)
     grid->setName("spheres");
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     auto accessor = grid->getAccessor();
-    for (int z : {zA, zB})
-        for (auto it = sphere->cbeginValueOn(); it; ++it) accessor.setValue(it.getCoord().offsetBy(0, 0, z), *it);
+    for (const glm::ivec3& c : {a, b})
+        for (auto it = sphere->cbeginValueOn(); it; ++it) accessor.setValue(it.getCoord().offsetBy(c.x, c.y, c.z), *it);
     openvdb::tools::signedFloodFill(grid->tree()); // the spheres' insides: negative, not background
     writeGridsVdb(path, {grid});
 }

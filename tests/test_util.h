@@ -162,8 +162,8 @@ void writeCroppedVdb(const std::string& source, const std::string& path, const g
 /// The index box [lo, hi] of the shared real volume `file` (writeCroppedVdb), read at `iso` (none:
 /// the grid's default).
 Volume realCrop(const char* file, const glm::ivec3& lo, const glm::ivec3& hi, std::optional<double> iso);
-/// A level set "spheres": two spheres of radius 5 (voxel 1, half-width 3) centred at (0, 0, zA)
-/// and (0, 0, zB) in index space, nothing in between.
-void writeFarSpheresVdb(const std::string& path, int zA, int zB);
+/// A level set "spheres": two spheres of radius 5 (voxel 1, half-width 3) centred at `a` and `b`
+/// in index space, nothing in between.
+void writeFarSpheresVdb(const std::string& path, const glm::ivec3& a, const glm::ivec3& b);
 
 } // namespace pipetile::test
