@@ -1478,9 +1478,9 @@ TEST(Graph, TheCentresBeforeAJumpToTheCentroidFollowItBack)
 // shrinks as x grows, and between x = 57.375 and 57.5, a slab an eighth of a voxel thick, the top
 // level's band fanned from a crossing at z = 153.1 to the crossings on the box's face z = 157.3,
 // across the vessel's inside: points of its triangles lay 1.26 voxels inside (1.20 voxels off as
-// the validator samples), while each one's point farthest from its corners lay within 0.82, all
-// the band was asked at. Such bands are asked at points all over, inside too, and take their
-// cells: 0.55.
+// the validator samples), but the band was asked only at each triangle's point farthest from its
+// corners, all within 0.82. Such bands are asked at points all over, inside too, and this one
+// takes its cells: 0.55.
 TEST(Graph, ABandAcrossTheInsideIsAskedAllOver)
 {
     expectTopLevelWithinAVoxelAlong(
