@@ -902,10 +902,6 @@ public:
     /// them.
     std::set<std::pair<int, int>> strayingBands(const std::set<std::pair<int, int>>& asked,
                                                 const std::set<std::pair<int, int>>& ends, double reach);
-    /// The band between two contours as tileSides gives it, over `vertices`: the lower contour's
-    /// crossings in world space, then the upper one's (band-local ids).
-    static std::vector<Triangle> bandOf(const Contour& lower, const Contour& upper,
-                                        const std::vector<glm::dvec3>& vertices);
 
 private:
     // Every contour of every tube in tube order, with the index of its first vertex. A fan cap's
@@ -2075,20 +2071,6 @@ std::set<std::pair<int, int>> Reconstruction::Assembly::strayingBands(const std:
     return straying;
 }
 
-std::vector<Triangle> Reconstruction::Assembly::bandOf(const Contour& lower, const Contour& upper,
-                                                       const std::vector<glm::dvec3>& vertices)
-{
-    const ContourString lowerString = contourString(lower), upperString = contourString(upper);
-    const ContourTree lowerTree(lowerString), upperTree(upperString);
-    const std::uint32_t m = static_cast<std::uint32_t>(lower.crossings.size());
-    std::size_t bytes = 0;
-    if (std::optional<std::vector<Triangle>> band =
-            tileByTrees(Side{&lower, &lowerString, &lowerTree, 0}, Side{&upper, &upperString, &upperTree, m}, bytes))
-        return std::move(*band);
-    const std::vector<glm::dvec3> a(vertices.begin(), vertices.begin() + m), b(vertices.begin() + m, vertices.end());
-    return withoutFullFans(tileLeastAreaNearest(a, b), m, static_cast<std::uint32_t>(b.size()));
-}
-
 bool Reconstruction::shapeMayStray(const SliceLoop& lower, const SliceLoop& upper)
 {
     if (profileChange(lower.profile, upper.profile) > kShapeChange) return true;
@@ -2122,10 +2104,6 @@ Reconstruction::strayingPieces(const std::vector<std::pair<double, double>>& ran
     // The top level's bound, a voxel.
     constexpr double kStray = 1.0;
     const int top = mOptions.levels - 1;
-    const RaySet rays{mOptions.baseRays, top};
-    // The bands that may fan, each from its own two contours with the top level's rays (the rays
-    // the level adds at folds left out): only those, so a tube that changes slowly costs nothing.
-    std::map<std::pair<int, int>, Contour> contours;
     // A band lies in a slab of the graph, between its lower contour and the plane above, or in
     // part of one that a band's own planes split (splitBand): its cells are that slab's piece's.
     struct Slab {
@@ -2153,21 +2131,15 @@ Reconstruction::strayingPieces(const std::vector<std::pair<double, double>>& ran
             straying.bandRanges.push_back(voxelRange(slab.lower.first, slab.above));
         }
     };
-    // Bands that may stray, asked as the top level tiles them: those as thin as the events'
-    // slabs, where their own contours alone say little (see below), and bands to end contours,
-    // whose cells (patchEnd) replace the end's contours and cap (the U-bend sliced along y: its
-    // end band's own contours strayed, the level's band does not).
+    // The bands that may stray, asked as the top level tiles them (only those, so a tube that
+    // changes slowly costs nothing). Their own two contours tiled alone say little: they strayed
+    // up to 4 voxels in the phantoms whose top levels keep within 0.96 (fold rays, extras and the
+    // area tiler change them), and a U-bend's end band's did where the level's does not. Asked
+    // so, the bands of slabs thicker than the events' that took their cells needlessly left
+    // needles where cells met long band triangles (the phantom sliced along y: 133 at level 2).
     std::map<std::pair<int, int>, Slab> levelBands;
     std::vector<bool> inGraph(mLoops.size(), false);
     for (const int s : mGraph.order) inGraph[static_cast<std::size_t>(s)] = true;
-    const auto contourOf = [&](const std::pair<int, int>& loop) -> const Contour& {
-        auto it = contours.find(loop);
-        if (it == contours.end()) {
-            const SlicePlane plane(mVolume, mPlan, mPositions[loop.first]);
-            it = contours.emplace(loop, cut(mLoops[loop.first][loop.second], rays, plane)).first;
-        }
-        return it->second;
-    };
     for (const Tube& tube : mTubes) {
         std::vector<std::pair<int, int>> kept; // the members the top level keeps
         for (const auto& m : tube.members)
@@ -2189,27 +2161,10 @@ Reconstruction::strayingPieces(const std::vector<std::pair<double, double>>& ran
             const double w0 = mPositions[lower.first], w1 = mPositions[upper.first];
             if (!overlapsAny(ranges, std::min(w0, w1), std::max(w0, w1))) continue;
             const SliceLoop &below = mLoops[lower.first][lower.second], &above = mLoops[upper.first][upper.second];
-            const double thickness = std::abs(w1 - w0);
-            const bool shapeChanges = shapeMayStray(below, above);
-            // A band near the bound in the graph's measure whose shape keeps (splitBand), asked as
-            // the top level tiles it: its own two contours tiled alone stray more (below).
-            const bool near = !shapeChanges && mNearBands.count(lower) > 0;
-            if (thickness <= kEventThickness || endOfBand.count(slab.lower) > 0 || near) {
-                if (thickness > 0.0 && (shapeChanges || near)) levelBands.emplace(lower, slab);
-                continue;
-            }
-            if (!shapeChanges) continue;
-            const Contour& a = contourOf(lower);
-            const Contour& b = contourOf(upper);
-            if (a.crossings.empty() || b.crossings.empty()) continue;
-            std::vector<glm::dvec3> vertices;
-            for (const auto& [c, plane] : {std::pair{&a, lower.first}, std::pair{&b, upper.first}})
-                for (const Crossing& x : c->crossings)
-                    vertices.push_back(mVolume.indexToWorld(planeToIndex(mPlan.axis, x.point, mPositions[plane])));
-            const std::vector<Triangle> band = Assembly::bandOf(a, b, vertices);
-            if (std::any_of(band.begin(), band.end(),
-                            [&](const Triangle& t) { return straysFrom(mVolume, vertices, t, kStray); }))
-                strayed(slab);
+            // A band whose shape changes, or near the bound in the graph's measure whose shape
+            // keeps (splitBand).
+            const bool mayStray = shapeMayStray(below, above) || mNearBands.count(lower) > 0;
+            if (w1 != w0 && mayStray) levelBands.emplace(lower, slab);
         }
     }
     // The junctions whose parts may fan, as the top level tiles them.
@@ -2232,14 +2187,12 @@ Reconstruction::strayingPieces(const std::vector<std::pair<double, double>>& ran
         topContours = castLevel(top);
         topLevel.emplace(*this, topContours, top);
     }
-    // A thin band's own two contours, tiled alone, stray up to 4 voxels in the phantoms whose
-    // top levels keep within 0.96 (fold rays, extras and the area tiler change them): those are
-    // tiled as the top level tiles them. Where one strays in a slab as thin, the whole range
-    // between the voxel planes around it is meshed from its cells, where that keeps its pieces'
-    // count (patchWholeRanges: a crop of the smoke, a band in a slab an eighth of a voxel thick
-    // fanned across a bay 1.78 voxels off, its own cells closing with two handles too many). In
-    // part of a thicker slab (splitBand), the slab's piece takes its cells, where they close. A
-    // band to an end contour that strays leaves the end to its cells (patchEnd).
+    // Where a band strays in a slab as thin as the events', the whole range between the voxel
+    // planes around it is meshed from its cells, where that keeps its pieces' count
+    // (patchWholeRanges: a crop of the smoke, a band in a slab an eighth of a voxel thick fanned
+    // across a bay 1.78 voxels off, its own cells closing with two handles too many). In part of
+    // a thicker slab (splitBand), the slab's piece takes its cells, where they close. A band to an
+    // end contour that strays leaves the end to its cells (patchEnd).
     if (!levelBands.empty()) {
         std::set<std::pair<int, int>> bands, ends;
         for (const auto& [band, slab] : levelBands) {

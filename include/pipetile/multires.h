@@ -284,12 +284,11 @@ private:
     /// slab, through whatever lies between: a crop of the smoke, a void a voxel across drifting
     /// two in one slab, 1.04 voxels off).
     static bool shapeMayStray(const SliceLoop& lower, const SliceLoop& upper);
-    /// The forks and merges, and the bands that may stray (shapeMayStray), whose triangles
-    /// at the top level stray more than a voxel from the isosurface as far as the field shows
-    /// (Volume::surfaceWithin): junctions and bands in slabs as thin as the events' as the level
-    /// tiles them, bands in thicker slabs from their own two contours. Those whose cells close
-    /// take them; a band's only in a slab thicker than the events' (the cells of a thinner one
-    /// leave needles: two capsule trees sliced along x, up to 734 where such bands took them).
+    /// The forks and merges, and the bands that may stray (shapeMayStray), whose triangles at the
+    /// top level, as it tiles them, stray more than a voxel from the isosurface as far as the
+    /// field shows (Volume::surfaceWithin). Those whose cells close take them; a band's only in a
+    /// slab thicker than the events' (the cells of a thinner one leave needles: two capsule trees
+    /// sliced along x, up to 734 where such bands took them).
     /// Straying forks and merges whose cells do not close give their slabs' ranges instead
     /// (thinJunctions), and bands their ranges between voxel planes (bandRanges). Only the
     /// pieces whose slabs overlap one of `ranges` (of w) are asked.
