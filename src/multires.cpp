@@ -2035,14 +2035,23 @@ std::vector<bool> Reconstruction::Assembly::strayingJunctions(const std::vector<
 {
     if (trees.empty()) buildTrees();
     std::vector<bool> straying(mJunctions.size(), false);
-    // At points all over each part, inside the object too (straysAnywhere).
+    // At points all over each part, inside the object too (straysAnywhere), and at its corners:
+    // the chords that split the single contour cross its inside, so their nodes need not lie on
+    // the surface (a crop of the smoke at iso 0.1: a fork's chord node in its single contour's
+    // plane lay 1.14 voxels inside, the partners' plane half a voxel above being inside there
+    // too, and straysAnywhere asks no point within a voxel of a corner).
+    const auto cornerStrays = [&](const Triangle& t) {
+        return std::any_of(t.begin(), t.end(),
+                           [&](std::uint32_t v) { return !mVolume.surfaceWithin(mesh.vertices[v], reach); });
+    };
     for (std::size_t j = 0; j < mJunctions.size(); ++j) {
         if (!asked[j]) continue;
         const std::size_t first = mesh.triangles.size();
         tileJunction(j);
-        straying[j] =
-            std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
-                        [&](const Triangle& t) { return straysAnywhere(mVolume, mesh.vertices, t, reach, true); });
+        straying[j] = std::any_of(mesh.triangles.begin() + static_cast<std::ptrdiff_t>(first), mesh.triangles.end(),
+                                  [&](const Triangle& t) {
+                                      return straysAnywhere(mVolume, mesh.vertices, t, reach, true) || cornerStrays(t);
+                                  });
     }
     return straying;
 }

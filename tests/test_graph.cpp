@@ -1489,6 +1489,17 @@ TEST(Graph, ABandAcrossTheInsideIsAskedAllOver)
         realCrop("ts_common_carotid_artery_left_ls.vdb", {46, 43, 133}, {85, 63, 157}, std::nullopt), Axis::X);
 }
 
+// Smoke crop survey 138/3 (box 12,36,29..59,84,76, iso 0.1, sliced along z) was 1.14 voxels off
+// at the top level: its worst triangles shared a node of a fork's chord at (45.44, 81.68, 35.5), in
+// the single contour's plane, where the field is 0.34, deep inside; the partners' plane half a
+// voxel above is inside there too (0.18), so the crotch lies farther up. The fork's parts were
+// asked at points all over but none within a voxel of a corner, corners being crossings
+// elsewhere. A junction's corners are asked too now, and the fork takes its cells: 0.77.
+TEST(Graph, AForksChordNodeDeepInsideIsAsked)
+{
+    expectTopLevelWithinAVoxelAlong(smokeCrop({12, 36, 29}, {59, 84, 76}, 0.1), Axis::Z);
+}
+
 // Known gaps of issue 13 (README, the crop survey), strict and registered with ctest as expected
 // failures (CMakeLists.txt).
 
@@ -1512,13 +1523,6 @@ TEST(KnownGap, AnEndAtACropsFaceKeepsOffItsNotches)
 TEST(KnownGap, ASectionShrinkingFromACropsFaceKeepsItsCentres)
 {
     expectTopLevelWithinAVoxelAlong(realCrop("vmtk_aorta_ls.vdb", {53, 93, 5}, {103, 127, 30}, std::nullopt), Axis::X);
-}
-
-// Smoke crop survey 138/3 (box 12,36,29..59,84,76, iso 0.1, sliced along z): 1.14 voxels off at
-// the top level; not traced yet.
-TEST(KnownGap, ASmokeCropAtIsoOneTenthAlongZIsWithinAVoxel)
-{
-    expectTopLevelWithinAVoxelAlong(smokeCrop({12, 36, 29}, {59, 84, 76}, 0.1), Axis::Z);
 }
 
 // Nor does a smooth tube have such a region: the phantom pays for no cells (they would cost about
