@@ -2144,8 +2144,8 @@ Reconstruction::strayingPieces(const std::vector<std::pair<double, double>>& ran
     // changes slowly costs nothing). Their own two contours tiled alone say little: they strayed
     // up to 4 voxels in the phantoms whose top levels keep within 0.96 (fold rays, extras and the
     // area tiler change them), and a U-bend's end band's did where the level's does not. Asked
-    // so, the bands of slabs thicker than the events' that took their cells needlessly left
-    // needles where cells met long band triangles (the phantom sliced along y: 133 at level 2).
+    // from those, bands in slabs thicker than the events' took their cells needlessly, and the
+    // cells met long band triangles in needles (the phantom sliced along y: 133 at level 2).
     std::map<std::pair<int, int>, Slab> levelBands;
     std::vector<bool> inGraph(mLoops.size(), false);
     for (const int s : mGraph.order) inGraph[static_cast<std::size_t>(s)] = true;
