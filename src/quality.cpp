@@ -1307,6 +1307,90 @@ long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound&
     return retiled;
 }
 
+long long moveNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach,
+                            const SurfaceBound& bound)
+{
+    std::vector<glm::dvec3>& p = mesh.vertices;
+    CoarserVertices kept(coarser);
+    std::vector<std::uint32_t> corners;
+    for (const Triangle& t : mesh.triangles)
+        if (aspectRatio(p[t[0]], p[t[1]], p[t[2]]) > kLargestAspect)
+            for (const std::uint32_t v : t)
+                if (!kept.has(p[v])) corners.push_back(v);
+    if (corners.empty()) return 0;
+    // By position: the same moves whichever way the level was built.
+    std::sort(corners.begin(), corners.end(),
+              [&](std::uint32_t x, std::uint32_t y) { return before(p[x], p[y]) || (p[x] == p[y] && x < y); });
+    corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
+    VertexFans around(p.size());
+    for (const std::uint32_t v : corners) around[v];
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+        for (const std::uint32_t v : mesh.triangles[f]) around.offer(v, f);
+
+    // The directions to a cube's 26 neighbours: a compass search (Torczon's pattern search) over
+    // the fan's largest aspect ratio, which has a kink wherever its worst triangle changes.
+    std::vector<glm::dvec3> directions;
+    for (int x = -1; x <= 1; ++x)
+        for (int y = -1; y <= 1; ++y)
+            for (int z = -1; z <= 1; ++z)
+                if (x != 0 || y != 0 || z != 0) directions.push_back(glm::normalize(glm::dvec3(x, y, z)));
+    long long moved = 0;
+    for (const std::uint32_t v : corners) {
+        const std::vector<std::uint32_t>& fan = around[v];
+        const glm::dvec3 start = p[v];
+        std::vector<glm::dvec3> facing;
+        for (const std::uint32_t f : fan) facing.push_back(faceNormal(mesh, mesh.triangles[f]));
+        // The fan's worst aspect ratio with v at q; infinite where a triangle would turn over.
+        const auto worstAt = [&](const glm::dvec3& q) {
+            p[v] = q;
+            double worst = 0.0;
+            for (std::size_t i = 0; i < fan.size(); ++i) {
+                const Triangle& t = mesh.triangles[fan[i]];
+                if (!(glm::dot(faceNormal(mesh, t), facing[i]) > 0.0)) {
+                    worst = std::numeric_limits<double>::infinity();
+                    break;
+                }
+                worst = std::max(worst, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+            }
+            p[v] = start;
+            return worst;
+        };
+        // Better: a lower worst aspect ratio down to kCollapseAspect, then a shorter move. So the
+        // corner goes as little as it must: the surface moves no farther than the corner does.
+        const double was = worstAt(start);
+        double best = std::max(was, kCollapseAspect), bestMove = 0.0;
+        glm::dvec3 at = start;
+        for (double step = 0.5 * reach; step > reach / 4096.0;) {
+            glm::dvec3 next = at;
+            for (const glm::dvec3& d : directions) {
+                const glm::dvec3 q = at + step * d;
+                const double move = glm::distance(q, start);
+                if (move > reach) continue;
+                const double worst = std::max(worstAt(q), kCollapseAspect);
+                if (worst < best * (1.0 - 1e-9) || (worst == best && move < bestMove)) {
+                    best = worst;
+                    bestMove = move;
+                    next = q;
+                }
+            }
+            if (next == at) step *= 0.5;
+            at = next;
+        }
+        if (!(best < was)) continue;
+        p[v] = at;
+        bool within = true;
+        for (const std::uint32_t f : fan) {
+            const Triangle& t = mesh.triangles[f];
+            within = within && bound.holds(p[t[0]], p[t[1]], p[t[2]]);
+        }
+        if (within)
+            ++moved;
+        else
+            p[v] = start;
+    }
+    return moved;
+}
+
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis, const std::vector<glm::dvec3>& coarser)
 {
     return NeedleFlipper(mesh, volume, axis, coarser).run();
