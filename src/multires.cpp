@@ -1976,7 +1976,12 @@ LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser
         // Last, at the top level only (a finer level would not have them where they went), the
         // needles' new corners move as little as they must: the smoke at iso 0.1 along x kept 154
         // on a void's bipyramid whose new ring vertex lay 0.006 voxel off its tips' line (91 now).
-        if (top) moveNeedleCorners(mesh, coarser, reach, bound);
+        // The needles left have their longest edge split, and the new vertex moves likewise: the
+        // same void along z, whose short edge joins two vertices of the level below (174, now 90).
+        if (top) {
+            moveNeedleCorners(mesh, coarser, reach, bound);
+            splitNeedleEdges(mesh, reach, bound);
+        }
     }
     result.qualitySeconds = secondsSince(quality);
     return std::move(result);

@@ -1307,6 +1307,79 @@ long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound&
     return retiled;
 }
 
+namespace {
+
+// Moves v, within `reach` of where it is, to where the largest aspect ratio of its triangles
+// `fan` falls to kCollapseAspect with the least move, or is lowest: a compass search (Torczon's
+// pattern search) over the 26 directions to a cube's neighbours, as that largest ratio has a kink
+// wherever its worst triangle changes. No triangle turns over, and each keeps within `bound`; the
+// surface moves no farther than v does. v stays unless the fan's worst falls to `enough`. Whether
+// v moved.
+bool relaxCorner(TriangleMesh& mesh, std::uint32_t v, const std::vector<std::uint32_t>& fan, double reach,
+                 const SurfaceBound& bound, double enough)
+{
+    static const std::vector<glm::dvec3> directions = [] {
+        std::vector<glm::dvec3> d;
+        for (int x = -1; x <= 1; ++x)
+            for (int y = -1; y <= 1; ++y)
+                for (int z = -1; z <= 1; ++z)
+                    if (x != 0 || y != 0 || z != 0) d.push_back(glm::normalize(glm::dvec3(x, y, z)));
+        return d;
+    }();
+    std::vector<glm::dvec3>& p = mesh.vertices;
+    const glm::dvec3 start = p[v];
+    std::vector<glm::dvec3> facing;
+    for (const std::uint32_t f : fan) facing.push_back(faceNormal(mesh, mesh.triangles[f]));
+    // The fan's worst aspect ratio with v at q; infinite where a triangle would turn over.
+    const auto worstAt = [&](const glm::dvec3& q) {
+        p[v] = q;
+        double worst = 0.0;
+        for (std::size_t i = 0; i < fan.size(); ++i) {
+            const Triangle& t = mesh.triangles[fan[i]];
+            if (!(glm::dot(faceNormal(mesh, t), facing[i]) > 0.0)) {
+                worst = std::numeric_limits<double>::infinity();
+                break;
+            }
+            worst = std::max(worst, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
+        }
+        p[v] = start;
+        return worst;
+    };
+    // Better: a lower worst aspect ratio down to kCollapseAspect, then a shorter move. So the
+    // corner goes as little as it must.
+    const double was = worstAt(start);
+    double best = std::max(was, kCollapseAspect), bestMove = 0.0;
+    glm::dvec3 at = start;
+    for (double step = 0.5 * reach; step > reach / 4096.0;) {
+        glm::dvec3 next = at;
+        for (const glm::dvec3& d : directions) {
+            const glm::dvec3 q = at + step * d;
+            const double move = glm::distance(q, start);
+            if (move > reach) continue;
+            const double worst = std::max(worstAt(q), kCollapseAspect);
+            if (worst < best * (1.0 - 1e-9) || (worst == best && move < bestMove)) {
+                best = worst;
+                bestMove = move;
+                next = q;
+            }
+        }
+        if (next == at) step *= 0.5;
+        at = next;
+    }
+    if (!(best < was) || !(worstAt(at) <= enough)) return false;
+    p[v] = at;
+    for (const std::uint32_t f : fan) {
+        const Triangle& t = mesh.triangles[f];
+        if (!bound.holds(p[t[0]], p[t[1]], p[t[2]])) {
+            p[v] = start;
+            return false;
+        }
+    }
+    return true;
+}
+
+} // namespace
+
 long long moveNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach,
                             const SurfaceBound& bound)
 {
@@ -1326,69 +1399,82 @@ long long moveNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& c
     for (const std::uint32_t v : corners) around[v];
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
         for (const std::uint32_t v : mesh.triangles[f]) around.offer(v, f);
-
-    // The directions to a cube's 26 neighbours: a compass search (Torczon's pattern search) over
-    // the fan's largest aspect ratio, which has a kink wherever its worst triangle changes.
-    std::vector<glm::dvec3> directions;
-    for (int x = -1; x <= 1; ++x)
-        for (int y = -1; y <= 1; ++y)
-            for (int z = -1; z <= 1; ++z)
-                if (x != 0 || y != 0 || z != 0) directions.push_back(glm::normalize(glm::dvec3(x, y, z)));
     long long moved = 0;
-    for (const std::uint32_t v : corners) {
-        const std::vector<std::uint32_t>& fan = around[v];
-        const glm::dvec3 start = p[v];
-        std::vector<glm::dvec3> facing;
-        for (const std::uint32_t f : fan) facing.push_back(faceNormal(mesh, mesh.triangles[f]));
-        // The fan's worst aspect ratio with v at q; infinite where a triangle would turn over.
-        const auto worstAt = [&](const glm::dvec3& q) {
-            p[v] = q;
-            double worst = 0.0;
-            for (std::size_t i = 0; i < fan.size(); ++i) {
-                const Triangle& t = mesh.triangles[fan[i]];
-                if (!(glm::dot(faceNormal(mesh, t), facing[i]) > 0.0)) {
-                    worst = std::numeric_limits<double>::infinity();
-                    break;
-                }
-                worst = std::max(worst, aspectRatio(p[t[0]], p[t[1]], p[t[2]]));
-            }
-            p[v] = start;
-            return worst;
-        };
-        // Better: a lower worst aspect ratio down to kCollapseAspect, then a shorter move. So the
-        // corner goes as little as it must: the surface moves no farther than the corner does.
-        const double was = worstAt(start);
-        double best = std::max(was, kCollapseAspect), bestMove = 0.0;
-        glm::dvec3 at = start;
-        for (double step = 0.5 * reach; step > reach / 4096.0;) {
-            glm::dvec3 next = at;
-            for (const glm::dvec3& d : directions) {
-                const glm::dvec3 q = at + step * d;
-                const double move = glm::distance(q, start);
-                if (move > reach) continue;
-                const double worst = std::max(worstAt(q), kCollapseAspect);
-                if (worst < best * (1.0 - 1e-9) || (worst == best && move < bestMove)) {
-                    best = worst;
-                    bestMove = move;
-                    next = q;
-                }
-            }
-            if (next == at) step *= 0.5;
-            at = next;
-        }
-        if (!(best < was)) continue;
-        p[v] = at;
-        bool within = true;
-        for (const std::uint32_t f : fan) {
-            const Triangle& t = mesh.triangles[f];
-            within = within && bound.holds(p[t[0]], p[t[1]], p[t[2]]);
-        }
-        if (within)
-            ++moved;
-        else
-            p[v] = start;
-    }
+    // A corner moves only where that takes its fan's needles away: the edge splits after take
+    // those left, with a smaller move (a needle's far corner, its short edge between two vertices
+    // of the coarser level, went the whole reach for 174 -> 122).
+    for (const std::uint32_t v : corners)
+        moved += relaxCorner(mesh, v, around[v], reach, bound, kLargestAspect) ? 1 : 0;
     return moved;
+}
+
+long long splitNeedleEdges(TriangleMesh& mesh, double reach, const SurfaceBound& bound)
+{
+    std::vector<glm::dvec3>& p = mesh.vertices;
+    const auto aspectOf = [&](const Triangle& t) { return aspectRatio(p[t[0]], p[t[1]], p[t[2]]); };
+    std::vector<std::uint32_t> needles;
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+        if (aspectOf(mesh.triangles[f]) > kLargestAspect) needles.push_back(f);
+    // Worst first; then by triangle, as tiled: the same whichever way the level was built.
+    std::stable_sort(needles.begin(), needles.end(), [&](std::uint32_t x, std::uint32_t y) {
+        return aspectOf(mesh.triangles[x]) > aspectOf(mesh.triangles[y]);
+    });
+    if (needles.empty()) return 0;
+    // The triangles around the needles' corners and the new vertices (one per split at most). An
+    // entry may be stale (a split took the triangle off the vertex, or was undone): the edge's
+    // triangle is looked up by what the triangles hold now.
+    VertexFans around(p.size() + needles.size());
+    for (const std::uint32_t f : needles)
+        for (const std::uint32_t v : mesh.triangles[f]) around[v];
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
+        for (const std::uint32_t v : mesh.triangles[f]) around.offer(v, f);
+    long long split = 0;
+    for (const std::uint32_t f : needles) {
+        const Triangle needle = mesh.triangles[f];
+        const double was = aspectOf(needle);
+        if (!(was > kLargestAspect)) continue; // an earlier split took it
+        // The needle runs a -> b along its longest edge; the triangle across runs b -> a.
+        int k = 0;
+        for (int i = 1; i < 3; ++i)
+            if (glm::distance(p[needle[i]], p[needle[(i + 1) % 3]]) >
+                glm::distance(p[needle[k]], p[needle[(k + 1) % 3]]))
+                k = i;
+        const std::uint32_t a = needle[k], b = needle[(k + 1) % 3], c = needle[(k + 2) % 3];
+        std::vector<std::uint32_t> on;
+        for (const std::uint32_t h : around[a])
+            if (h != f && h < mesh.triangles.size() && oppositeCorner(mesh.triangles[h], b, a) >= 0) on.push_back(h);
+        std::sort(on.begin(), on.end());
+        on.erase(std::unique(on.begin(), on.end()), on.end());
+        if (on.size() != 1) continue; // a boundary or non-manifold edge stays
+        const std::uint32_t g = on.front();
+        const Triangle other = mesh.triangles[g];
+        const std::uint32_t d = other[oppositeCorner(other, b, a)];
+        const double worstBefore = std::max(was, aspectOf(other));
+        // The midpoint leaves the surface where it was; then it moves as little as it must.
+        const std::uint32_t m = static_cast<std::uint32_t>(p.size());
+        p.push_back(0.5 * (p[a] + p[b]));
+        const std::uint32_t f2 = static_cast<std::uint32_t>(mesh.triangles.size()), g2 = f2 + 1;
+        mesh.triangles[f] = {a, m, c};
+        mesh.triangles[g] = {b, m, d};
+        mesh.triangles.push_back({m, b, c});
+        mesh.triangles.push_back({m, a, d});
+        const std::vector<std::uint32_t> fan = {f, f2, g, g2};
+        relaxCorner(mesh, m, fan, reach, bound, std::numeric_limits<double>::infinity());
+        double worstAfter = 0.0;
+        for (const std::uint32_t h : fan) worstAfter = std::max(worstAfter, aspectOf(mesh.triangles[h]));
+        if (worstAfter < worstBefore) {
+            around[m] = fan;
+            for (const std::uint32_t v : {b, c}) around.offer(v, f2);
+            for (const std::uint32_t v : {a, d}) around.offer(v, g2);
+            ++split;
+            continue;
+        }
+        mesh.triangles.resize(f2);
+        mesh.triangles[f] = needle;
+        mesh.triangles[g] = other;
+        p.pop_back();
+    }
+    return split;
 }
 
 long long flipNeedles(TriangleMesh& mesh, const Volume& volume, int axis, const std::vector<glm::dvec3>& coarser)

@@ -155,9 +155,10 @@ long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound&
 /// Moves the corners of the needles the other passes leave that the coarser level lacks
 /// (`coarser`, as collapseNeedleEdges takes it), each no farther than `reach` (world units), to
 /// where the largest aspect ratio of its triangles falls to kCollapseAspect with the least move,
-/// or is lowest: a compass search. A void thinner than a hundredth of a voxel meshed as a
-/// bipyramid whose ring is nearly in line (the smoke at iso 0.1 along x: 154) needs its new ring
-/// vertex moved a fiftieth of a voxel. No triangle turns over, each keeps within `bound`, and the
+/// or is lowest (a compass search), where that is kLargestAspect or less: a move that leaves a
+/// needle is not made (splitNeedleEdges takes those). A void thinner than a hundredth of a voxel
+/// meshed as a bipyramid whose ring is nearly in line (the smoke at iso 0.1 along x: 154) needs
+/// its new ring vertex moved a fiftieth of a voxel. No triangle turns over, each keeps within `bound`, and the
 /// surface moves no farther than the corner does. Triangles stay as they are, and so do the
 /// coarser level's vertices; but a finer level would not have the corner where it went, so only
 /// the top level may move its corners (a coarser level's moves, carried up, turned over triangles
@@ -165,6 +166,17 @@ long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound&
 /// @return the number of corners moved.
 long long moveNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach,
                             const SurfaceBound& bound = {});
+
+/// Splits the longest edge of each needle the other passes leave, worst first, at its midpoint (the
+/// surface stays where it was), and moves the new vertex as moveNeedleCorners moves a corner: where
+/// a short edge joins two vertices of the coarser level and its needle's third corner lies too far
+/// for any move within `reach` (world units) (a void in the smoke at iso 0.1 sliced along z, 174),
+/// the triangle on that edge halves and the new vertex, off the line, keeps the halves' neighbours
+/// no needles. A split is kept where it lowers the worse of the two triangles on the edge. For the
+/// top level only: a finer level would not have the new vertex. The mesh stays closed, manifold and
+/// oriented; the new vertices come last. Deterministic.
+/// @return the number of edges split.
+long long splitNeedleEdges(TriangleMesh& mesh, double reach, const SurfaceBound& bound = {});
 
 /// The edges the reconstruction collapses (collapseNeedleEdges), in voxels: the needles' short
 /// edges lie mostly far below (tree, aorta: under 0.01 voxel), the rays' own spacing on a tube of a
