@@ -1449,6 +1449,7 @@ long long splitNeedleEdges(TriangleMesh& mesh, double reach, const SurfaceBound&
         const std::uint32_t g = on.front();
         const Triangle other = mesh.triangles[g];
         const std::uint32_t d = other[oppositeCorner(other, b, a)];
+        if (d == c) continue; // a pillow: the edge from the midpoint to c would hold four triangles
         const double worstBefore = std::max(was, aspectOf(other));
         // The midpoint leaves the surface where it was; then it moves as little as it must.
         const std::uint32_t m = static_cast<std::uint32_t>(p.size());

@@ -969,6 +969,15 @@ TEST(Quality, ANeedleNoMoveTakesIsSplitAlongItsLongestEdge)
     EXPECT_EQ(t.components, 1);
     // Nothing is left to split.
     EXPECT_EQ(splitNeedleEdges(mesh, 0.3), 0);
+    // A pillow of needles stays: its two triangles share their third corner, and the edge from the
+    // midpoint to it would hold four triangles.
+    TriangleMesh pillow;
+    pillow.vertices = {{0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {0.5, 0.001, 0.0}};
+    pillow.triangles = {{0, 1, 2}, {1, 0, 2}};
+    ASSERT_GT(measureQuality(pillow).largestAspect, kLargestAspect);
+    EXPECT_EQ(splitNeedleEdges(pillow, 0.3), 0);
+    EXPECT_EQ(pillow.vertices.size(), 3u);
+    EXPECT_EQ(pillow.triangles.size(), 2u);
 }
 
 // The smoke at iso 0.1 (data/README's value) sliced along x kept 154 at its top level on the void
