@@ -1415,11 +1415,11 @@ long long splitNeedleEdges(TriangleMesh& mesh, double reach, const SurfaceBound&
     std::vector<std::uint32_t> needles;
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f)
         if (aspectOf(mesh.triangles[f]) > kLargestAspect) needles.push_back(f);
+    if (needles.empty()) return 0;
     // Worst first; then by triangle, as tiled: the same whichever way the level was built.
     std::stable_sort(needles.begin(), needles.end(), [&](std::uint32_t x, std::uint32_t y) {
         return aspectOf(mesh.triangles[x]) > aspectOf(mesh.triangles[y]);
     });
-    if (needles.empty()) return 0;
     // The triangles around the needles' corners and the new vertices (one per split at most). An
     // entry may be stale (a split took the triangle off the vertex, or was undone): the edge's
     // triangle is looked up by what the triangles hold now.

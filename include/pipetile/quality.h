@@ -158,11 +158,12 @@ long long retileNeedleFans(TriangleMesh& mesh, double reach, const SurfaceBound&
 /// or is lowest (a compass search), where that is kLargestAspect or less: a move that leaves a
 /// needle is not made (splitNeedleEdges takes those). A void thinner than a hundredth of a voxel
 /// meshed as a bipyramid whose ring is nearly in line (the smoke at iso 0.1 along x: 154) needs
-/// its new ring vertex moved a fiftieth of a voxel. No triangle turns over, each keeps within `bound`, and the
-/// surface moves no farther than the corner does. Triangles stay as they are, and so do the
-/// coarser level's vertices; but a finer level would not have the corner where it went, so only
-/// the top level may move its corners (a coarser level's moves, carried up, turned over triangles
-/// that the finer levels add beside the corner). Deterministic: corners move in order of position.
+/// its new ring vertex moved a fiftieth of a voxel. No triangle turns over, each keeps within
+/// `bound`, and the surface moves no farther than the corner does. Triangles stay as they are, and
+/// so do the coarser level's vertices; but a finer level would not have the corner where it went,
+/// so only the top level may move its corners (a coarser level's moves, carried up, turned over
+/// triangles that the finer levels add beside the corner). Deterministic: corners move in order
+/// of position.
 /// @return the number of corners moved.
 long long moveNeedleCorners(TriangleMesh& mesh, const std::vector<glm::dvec3>& coarser, double reach,
                             const SurfaceBound& bound = {});
