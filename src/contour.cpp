@@ -1294,26 +1294,40 @@ std::vector<int> strayingChords(const Contour& contour, const LoopView& view, do
     });
 }
 
+namespace {
+
+// The walk from crossing k to crossing k + 1 along the polygon: the crossings' points at its ends
+// and the polygon points between them, with their indices into view.polygon (-1 at the ends).
+void walkBetween(const Contour& contour, const LoopView& view, std::size_t k, std::vector<glm::dvec2>& walk,
+                 std::vector<int>& index)
+{
+    const std::size_t m = view.polygon.size();
+    const Crossing& a = contour.crossings[k];
+    const Crossing& b = contour.crossings[(k + 1) % contour.crossings.size()];
+    walk.assign(1, a.point);
+    index.assign(1, -1);
+    for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
+        walk.push_back(view.polygon[i]);
+        index.push_back(static_cast<int>(i));
+        if (i == static_cast<std::size_t>(b.segment)) break;
+    }
+    walk.push_back(b.point);
+    index.push_back(-1);
+}
+
+} // namespace
+
 std::vector<std::vector<int>> wallPoints(const Contour& contour, const LoopView& view, double reach, double tolerance)
 {
-    const std::size_t count = contour.crossings.size(), m = view.polygon.size();
+    const std::size_t count = contour.crossings.size();
     std::vector<std::vector<int>> kept(count);
     std::vector<glm::dvec2> walk;
     std::vector<int> index;
     std::vector<bool> keep;
     for (std::size_t k = 0; k < count; ++k) {
-        const Crossing& a = contour.crossings[k];
-        const Crossing& b = contour.crossings[(k + 1) % count];
-        if (a.segment == b.segment) continue; // no polygon point between them
-        walk.assign(1, a.point);
-        index.assign(1, -1);
-        for (std::size_t i = (static_cast<std::size_t>(a.segment) + 1) % m;; i = (i + 1) % m) {
-            walk.push_back(view.polygon[i]);
-            index.push_back(static_cast<int>(i));
-            if (i == static_cast<std::size_t>(b.segment)) break;
-        }
-        walk.push_back(b.point);
-        index.push_back(-1);
+        if (contour.crossings[k].segment == contour.crossings[(k + 1) % count].segment)
+            continue; // no polygon point between them
+        walkBetween(contour, view, k, walk, index);
         keep.assign(walk.size(), false);
         // Douglas-Peucker on the walk's points between its two ends, where the edge strays past
         // `reach`.
@@ -1342,6 +1356,36 @@ std::vector<std::vector<int>> wallPoints(const Contour& contour, const LoopView&
         }
         for (std::size_t i = 1; i + 1 < walk.size(); ++i)
             if (keep[i]) kept[k].push_back(index[i]);
+    }
+    return kept;
+}
+
+std::vector<std::vector<int>> longChordPoints(const Contour& contour, const LoopView& view,
+                                              const std::vector<double>& pieces)
+{
+    std::vector<std::vector<int>> kept(contour.crossings.size());
+    std::vector<glm::dvec2> walk;
+    std::vector<int> index;
+    std::vector<double> along; // arc length along the walk
+    for (std::size_t k = 0; k < contour.crossings.size(); ++k) {
+        const Crossing& a = contour.crossings[k];
+        const Crossing& b = contour.crossings[(k + 1) % contour.crossings.size()];
+        if (a.segment == b.segment || pieces[k] <= 0.0) continue;
+        walkBetween(contour, view, k, walk, index);
+        along.assign(1, 0.0);
+        for (std::size_t i = 1; i < walk.size(); ++i)
+            along.push_back(along.back() + glm::distance(walk[i - 1], walk[i]));
+        // Pieces of equal length along the walk, each cut at the polygon point nearest its end.
+        const int count = static_cast<int>(std::ceil(along.back() / pieces[k]));
+        std::size_t at = 0;
+        for (int j = 1; j < count; ++j) {
+            const double target = along.back() * j / count;
+            while (at + 1 < walk.size() && along[at + 1] <= target) ++at;
+            const std::size_t nearest =
+                at + 1 < walk.size() && along[at + 1] - target < target - along[at] ? at + 1 : at;
+            if (index[nearest] >= 0 && (kept[k].empty() || kept[k].back() != index[nearest]))
+                kept[k].push_back(index[nearest]);
+        }
     }
     return kept;
 }

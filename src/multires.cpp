@@ -126,24 +126,51 @@ void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t 
     PIPETILE_ASSERT(false, "a contour edge lies in no triangle of its band");
 }
 
+// The distance from `p` to the closed polygon's nearest point.
+double distanceToPolygon(const glm::dvec2& p, const std::vector<glm::dvec2>& polygon)
+{
+    double nearest2 = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < polygon.size(); ++j) {
+        const glm::dvec2 a = polygon[j], ab = polygon[(j + 1) % polygon.size()] - a;
+        const double ab2 = glm::dot(ab, ab);
+        const double s = ab2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / ab2, 0.0, 1.0) : 0.0;
+        const glm::dvec2 off = p - (a + s * ab);
+        nearest2 = std::min(nearest2, glm::dot(off, off));
+    }
+    return std::sqrt(nearest2);
+}
+
+// A position's bits: levels nest bit for bit, so vertices are found by them.
+using PositionKey = std::array<std::uint64_t, 3>;
+
+PositionKey positionKey(const glm::dvec3& p)
+{
+    PositionKey key;
+    std::memcpy(key.data(), &p[0], sizeof key);
+    return key;
+}
+
+std::vector<PositionKey> sortedKeys(const std::vector<glm::dvec3>& points)
+{
+    std::vector<PositionKey> keys(points.size());
+    std::transform(points.begin(), points.end(), keys.begin(), positionKey);
+    std::sort(keys.begin(), keys.end());
+    return keys;
+}
+
 // For each vertex of `coarse`, a vertex of `fine` at the same position, bit for bit; each vertex of
 // `fine` is taken once, duplicates in order. Sorting by the coordinates' bits finds them.
 std::vector<std::uint32_t> matchVertices(const std::vector<glm::dvec3>& coarse, const std::vector<glm::dvec3>& fine,
                                          int level)
 {
-    using Key = std::array<std::uint64_t, 3>;
-    auto keyOf = [](const glm::dvec3& p) {
-        Key key;
-        std::memcpy(key.data(), &p[0], sizeof key);
-        return key;
-    };
+    using Key = PositionKey;
     std::vector<std::pair<Key, std::uint32_t>> sorted(fine.size());
-    for (std::size_t v = 0; v < fine.size(); ++v) sorted[v] = {keyOf(fine[v]), static_cast<std::uint32_t>(v)};
+    for (std::size_t v = 0; v < fine.size(); ++v) sorted[v] = {positionKey(fine[v]), static_cast<std::uint32_t>(v)};
     std::sort(sorted.begin(), sorted.end());
     std::vector<bool> taken(sorted.size(), false);
     std::vector<std::uint32_t> match(coarse.size());
     for (std::size_t v = 0; v < coarse.size(); ++v) {
-        const Key key = keyOf(coarse[v]);
+        const Key key = positionKey(coarse[v]);
         auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(key, std::uint32_t(0)));
         while (it != sorted.end() && it->first == key && taken[it - sorted.begin()]) ++it;
         if (it == sorted.end() || it->first != key)
@@ -946,7 +973,8 @@ private:
     void numberJunctionVertices();
     void numberPatchVertices();
     void placeVertices();
-    void addWallVertices();
+    void addWallVertices(const std::vector<glm::dvec3>& coarser);
+    std::vector<double> chordPieces(std::size_t i) const;
     std::size_t memberAt(const std::pair<int, int>& loop) const;
     // A member's ring as it stands before the patches' points join it (its crossings, a junction's
     // nodes and parts' crossings), by position: ordered by x, then by id.
@@ -1266,38 +1294,92 @@ void Reconstruction::Assembly::placeVertices()
         }
 }
 
-// The top level's wall vertices: where an edge of a contour between a tube's ends strays more than
-// a voxel from the boundary it stands for (wallPoints), the polygon points that keep it within
-// half a voxel, as extras. Rays from the central point cannot reach such a wall (it points at the
-// centre), and the sectors' halvings stop at RaySet::kFoldDepth. No finer level is built from the
-// top level, so levels still nest. The bands beside such a contour are tiled from the rings
-// (tileBands).
-void Reconstruction::Assembly::addWallVertices()
+// Wall vertices: polygon points added as extras where the rays leave a contour edge no band can
+// follow. At the top level, where an edge between a tube's ends strays more than a voxel from the
+// boundary it stands for (wallPoints), the points that keep it within half a voxel: rays from the
+// central point cannot reach such a wall (it points at the centre), and the sectors' halvings stop
+// at RaySet::kFoldDepth. At every level, where an edge is longer than a band across the thinner
+// of the level's slabs beside it can tile without needles (longChords), points that cut it into
+// pieces half that long (longChordPoints). The wall vertices of `coarser` levels stay at this one, so levels still
+// nest. The bands beside such a contour are tiled from the rings (tileBands).
+void Reconstruction::Assembly::addWallVertices(const std::vector<glm::dvec3>& coarser)
 {
     walled.assign(members.size(), 0);
-    if (result.level != mOptions.levels - 1 || mOptions.tiler != TilerKind::ContourTree) return;
+    if (mOptions.tiler != TilerKind::ContourTree) return;
+    const bool top = result.level == mOptions.levels - 1;
     // Pixels: an edge farther than the top level's bound (a voxel) from its walk gets vertices that
     // bring it within half a voxel, as the straying chords' rays do (addFoldRays). With any edge
     // past half a voxel, three random crops of the smoke were up to 0.1 voxel farther off and one
     // gained a needle of aspect 142.
     constexpr double kWallReach = 1.0, kWallTolerance = 0.5;
-    std::vector<std::vector<std::vector<int>>> points(members.size());
+    const std::vector<PositionKey> coarse = sortedKeys(coarser), placed = sortedKeys(mesh.vertices);
+    auto among = [](const std::vector<PositionKey>& keys, const glm::dvec3& p) {
+        return std::binary_search(keys.begin(), keys.end(), positionKey(p));
+    };
+    std::vector<std::vector<int>> points(members.size());
     forEachIndex(mOptions.threads, members.size(), [&](std::size_t i) {
         const Member& m = members[i];
+        const LoopView& view = mLoops[m.slice][m.loop].view;
+        std::vector<int>& chosen = points[i];
         // Tube ends, and contours with extras of their own, are capped or joined: left as they are.
-        if (m.startsTube || m.endsTube || !extras[i].empty()) return;
-        points[i] = wallPoints(*m.contour, mLoops[m.slice][m.loop].view, kWallReach, kWallTolerance);
+        if (!m.startsTube && !m.endsTube && extras[i].empty()) {
+            if (top) {
+                for (const std::vector<int>& between : wallPoints(*m.contour, view, kWallReach, kWallTolerance))
+                    chosen.insert(chosen.end(), between.begin(), between.end());
+            }
+            for (const std::vector<int>& between : longChordPoints(*m.contour, view, chordPieces(i)))
+                chosen.insert(chosen.end(), between.begin(), between.end());
+        }
+        if (!coarse.empty())
+            for (std::size_t s = 0; s < view.polygon.size(); ++s)
+                if (among(coarse, toWorld(view.polygon[s], m.slice))) chosen.push_back(static_cast<int>(s));
+        std::sort(chosen.begin(), chosen.end());
+        chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+        // A point that is a vertex already (a crossing cast on the polygon, a patch's) stays one.
+        chosen.erase(std::remove_if(chosen.begin(), chosen.end(),
+                                    [&](int s) { return among(placed, toWorld(view.polygon[s], m.slice)); }),
+                     chosen.end());
     });
     for (std::size_t i = 0; i < members.size(); ++i) {
         const std::vector<glm::dvec2>& polygon = mLoops[members[i].slice][members[i].loop].view.polygon;
-        for (const std::vector<int>& between : points[i])
-            for (const int s : between) {
-                extras[i].push_back({s, 0.0, vertexCount++, polygon[s]});
-                mesh.vertices.push_back(toWorld(polygon[s], members[i].slice));
-                walled[i] = 1;
-                ++result.wallVertices;
-            }
+        for (const int s : points[i]) {
+            extras[i].push_back({s, 0.0, vertexCount++, polygon[s]});
+            mesh.vertices.push_back(toWorld(polygon[s], members[i].slice));
+            walled[i] = 1;
+            ++result.wallVertices;
+        }
     }
+}
+
+// Per edge of member i's contour (a tube's inner member), how long the pieces that longChordPoints
+// cuts it into may be, or 0 where its bands need no cut. A band's triangle on an edge L long
+// stands h high, h = sqrt(t^2 + d^2) over a slab t thick where the other contour's boundary lies d
+// off the edge in the plane: an aspect ratio of at least sqrt(3)/2 L / h, past kLargestAspect once
+// L > 2 / sqrt(3) kLargestAspect h (addFoldRays' longChords takes d = 0). The pieces are cut to
+// kCollapseAspect's length, which the needle passes leave as tiled. The level's own slabs: coarse
+// levels skip slices, and their bands span several.
+std::vector<double> Reconstruction::Assembly::chordPieces(std::size_t i) const
+{
+    const double longest = 2.0 / std::sqrt(3.0) * kLargestAspect, piece = 2.0 / std::sqrt(3.0) * kCollapseAspect;
+    const std::vector<Crossing>& x = members[i].contour->crossings;
+    const std::size_t neighbours[2] = {i - 1, i + 1};
+    double thinner = std::numeric_limits<double>::infinity();
+    for (std::size_t n : neighbours)
+        thinner = std::min(thinner, std::abs(mPositions[members[n].slice] - mPositions[members[i].slice]));
+    std::vector<double> pieces(x.size(), 0.0);
+    for (std::size_t k = 0; k < x.size(); ++k) {
+        const glm::dvec2 a = x[k].point, b = x[(k + 1) % x.size()].point;
+        const double length = glm::distance(a, b);
+        if (length <= longest * thinner) continue; // no band on it can be that flat
+        double h = std::numeric_limits<double>::infinity();
+        for (std::size_t n : neighbours) {
+            const double t = mPositions[members[n].slice] - mPositions[members[i].slice];
+            const double d = distanceToPolygon(0.5 * (a + b), mLoops[members[n].slice][members[n].loop].view.polygon);
+            h = std::min(h, std::hypot(t, d));
+        }
+        if (length > longest * h) pieces[k] = piece * h;
+    }
+    return pieces;
 }
 
 // A contour's ring: its crossings in walk order with its extras merged in by their place on
@@ -1857,7 +1939,7 @@ void Reconstruction::Assembly::tilePart(std::size_t j, std::size_t k, const std:
 
 LevelMesh Reconstruction::Assembly::build(const std::vector<glm::dvec3>& coarser)
 {
-    addWallVertices();
+    addWallVertices(coarser);
     const Clock::time_point tiling = Clock::now();
     buildTrees();
     tileBands();
@@ -2069,7 +2151,7 @@ std::set<std::pair<int, int>> Reconstruction::Assembly::strayingBands(const std:
                                                                       const std::set<std::pair<int, int>>& ends,
                                                                       double reach)
 {
-    if (walled.empty()) addWallVertices(); // as build() tiles them
+    if (walled.empty()) addWallVertices({}); // as build() tiles them, but for coarser levels' wall vertices
     if (trees.empty()) buildTrees();
     tileBands();
     // Inside the object too, but for bands to end contours (straysAnywhere): a band fanned from

@@ -475,3 +475,29 @@ TEST(Contour, LongChordsAreTheSectorsWhoseCrossingsLieFarApart)
     EXPECT_EQ(longChords(halved, 15.0), (std::vector<int>{0, 4, 5, 8}));
     EXPECT_EQ(longChords(halved, 15.5), (std::vector<int>{4, 5, 8}));
 }
+
+TEST(Contour, LongChordPointsCutAnEdgeIntoEvenPiecesAlongItsWalk)
+{
+    // The rectangle 40 by 4 of LongChords, its top side a polygon point every pixel at x = 19.5 down
+    // to -19.5, cast with 4 rays: (20, 0), (0, 2), (-20, 0), (0, -2). The walk from the first
+    // crossing up the end and along the top to the second is 2 + 20 = 22 long: pieces of at most
+    // 7.4 make three of 7.33, cut at x = 22 - 7.33 and 22 - 14.67, at the polygon points nearest
+    // them, x = 14.5 (index 8) and 7.5 (index 15).
+    std::vector<glm::dvec2> polygon{{-20, -2}, {20, -2}, {20, 2}};
+    for (int j = 0; j < 40; ++j) polygon.push_back({19.5 - j, 2});
+    polygon.push_back({-20, 2});
+    const LoopView view = viewOfPolygon(polygon, {0, 0});
+    const Contour contour = castPolygon(view, RaySet{4, 0});
+    ASSERT_EQ(contour.crossings.size(), 4u);
+    ASSERT_LT(glm::distance(contour.crossings[1].point, glm::dvec2(0, 2)), 1e-9);
+    const std::vector<std::vector<int>> cut = longChordPoints(contour, view, {7.4, 0.0, 0.0, 0.0});
+    ASSERT_EQ(cut.size(), 4u);
+    EXPECT_EQ(cut[0], (std::vector<int>{8, 15}));
+    for (std::size_t k = 1; k < 4; ++k) EXPECT_TRUE(cut[k].empty()) << k;
+    // Pieces longer than the walk leave it whole; pieces of at most 2.3 make ten of 2.2, cut at nine
+    // points, the first the corner (20, 2) (index 2), 2 along.
+    EXPECT_TRUE(longChordPoints(contour, view, {22.5, 0.0, 0.0, 0.0})[0].empty());
+    const std::vector<int> nine = longChordPoints(contour, view, {2.3, 0.0, 0.0, 0.0})[0];
+    ASSERT_EQ(nine.size(), 9u);
+    EXPECT_EQ(nine[0], 2);
+}

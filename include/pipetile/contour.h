@@ -265,6 +265,15 @@ std::vector<int> strayingChords(const Contour& contour, const LoopView& view, do
 /// along the trunk, 1.3 voxels off).
 std::vector<std::vector<int>> wallPoints(const Contour& contour, const LoopView& view, double reach, double tolerance);
 
+/// The polygon points that cut contour edges into pieces about pieces[k] pixels long along their
+/// walk (none where pieces[k] is 0): per crossing k, indices into view.polygon (walk order). A band
+/// on an edge L long whose triangles stand h high has needles whatever its tiling once L is long
+/// against h (longChords), and where the edge runs along a wall that points at the central point
+/// no halving of its sector meets the wall between its ends (a cone sliced along its length:
+/// edges of 112 voxels from a section's tip after three halvings).
+std::vector<std::vector<int>> longChordPoints(const Contour& contour, const LoopView& view,
+                                              const std::vector<double>& pieces);
+
 /// Chords longer than `length` pixels between crossings of two neighbouring rays: sectors
 /// (ascending, once each). A band across a thin slab has triangles as long as its chords and about
 /// as high as the slab: needles where the chords are long (a straight wall seen from a central

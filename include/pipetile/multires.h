@@ -70,8 +70,9 @@ struct LevelMesh {
     double qualitySeconds = 0.0;    // of which the needle passes' (collapses, flips, spindles)
     std::size_t tilingBytes = 0;    // the tiler's working structures, summed over all bands
     int contours = 0;               // contours tiled
-    int wallVertices = 0;           // top level: boundary points added on contour edges no ray
-                                    // splits (wallPoints); their bands are tiled by least area
+    int wallVertices = 0;           // boundary points added on contour edges no ray splits
+                                    // (wallPoints, longChordPoints), the coarser levels' too;
+                                    // their bands are tiled by least area
     int skippedContours = 0;        // contours of the tubes this level skips: their neighbours
                                     // predict them within the level's own error
     int ambiguousContours = 0;      // contours with more than one F edge in some sector
