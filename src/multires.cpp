@@ -1298,10 +1298,11 @@ void Reconstruction::Assembly::placeVertices()
 // follow. At the top level, where an edge between a tube's ends strays more than a voxel from the
 // boundary it stands for (wallPoints), the points that keep it within half a voxel: rays from the
 // central point cannot reach such a wall (it points at the centre), and the sectors' halvings stop
-// at RaySet::kFoldDepth. At every level, where an edge is longer than a band across the thinner
-// of the level's slabs beside it can tile without needles (longChords), points that cut it into
-// pieces half that long (longChordPoints). The wall vertices of `coarser` levels stay at this one, so levels still
-// nest. The bands beside such a contour are tiled from the rings (tileBands).
+// at RaySet::kFoldDepth. At every level, where an edge is too long for a band beside it to have no
+// needle, points that cut it into pieces half that long (longChordPoints, chordPieces). The wall
+// vertices of the `coarser` levels stay, so levels still nest: a polygon point where a coarser
+// level has a vertex is one of them, unless this level has a vertex there already. The bands
+// beside such a contour are tiled from the rings (tileBands).
 void Reconstruction::Assembly::addWallVertices(const std::vector<glm::dvec3>& coarser)
 {
     walled.assign(members.size(), 0);
