@@ -2391,12 +2391,12 @@ TEST(Graph, RingTreeElevenIsWithinAVoxelAtTheTopLevel)
 
 namespace {
 
-// Sliced along x, the largest aspect ratio of each level of a reconstruction of `volume`; infinite
-// where a triangle has no area (measureQuality counts those apart).
-std::vector<double> largestAspectsAlongX(const Volume& volume)
+// Sliced along `axis`, the largest aspect ratio of each level of a reconstruction of `volume`;
+// infinite where a triangle has no area (measureQuality counts those apart).
+std::vector<double> largestAspects(const Volume& volume, Axis axis = Axis::X)
 {
     MeshOptions options;
-    options.slicing.axis = Axis::X;
+    options.slicing.axis = axis;
     const Reconstruction reconstruction(volume, options);
     std::vector<double> aspects;
     for (int level = 0; level < reconstruction.levelCount(); ++level) {
@@ -2423,7 +2423,7 @@ void expectNoNeedleAtAnyLevel(const std::vector<double>& aspects)
 // (tileLeastAreaNearest), the top level has no needle over issue 17's bound.
 TEST(Graph, AThinSlabAcrossATrunksStraightWallsTilesWithoutFans)
 {
-    const std::vector<double> aspects = largestAspectsAlongX(capsuleUnion(crossingTrees()[1], "capsule tree"));
+    const std::vector<double> aspects = largestAspects(capsuleUnion(crossingTrees()[1], "capsule tree"));
     EXPECT_LE(aspects.back(), kLargestAspect);
 }
 
@@ -2433,7 +2433,7 @@ TEST(Graph, AThinSlabAcrossATrunksStraightWallsTilesWithoutFans)
 // its largest is 41.
 TEST(Graph, ACollapsesShortestEdgesGoFirst)
 {
-    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({50, 76, 80}, {91, 115, 105}, 0.2)));
+    expectNoNeedleAtAnyLevel(largestAspects(smokeCrop({50, 76, 80}, {91, 115, 105}, 0.2)));
 }
 
 // A random crop of the smoke at iso 0.2 (seed 110, crop 6), sliced along x. A ray along a pixel row
@@ -2442,7 +2442,7 @@ TEST(Graph, ACollapsesShortestEdgesGoFirst)
 // take. The patch now takes the crossing (Assembly::vertexAtPoint).
 TEST(Graph, APatchTakesTheCrossingAtItsPoint)
 {
-    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 34, 25}, {106, 82, 66}, 0.2)));
+    expectNoNeedleAtAnyLevel(largestAspects(smokeCrop({57, 34, 25}, {106, 82, 66}, 0.2)));
 }
 
 // A random crop of the smoke at iso 0.3 (seed 107, crop 9), sliced along x. A fork's part met its
@@ -2450,7 +2450,7 @@ TEST(Graph, APatchTakesTheCrossingAtItsPoint)
 // vertices there, and from level 1 on two triangles of no area. The patch now takes the part's.
 TEST(Graph, APatchTakesAJunctionsVertexAtItsPoint)
 {
-    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({57, 55, 28}, {95, 78, 67}, 0.3)));
+    expectNoNeedleAtAnyLevel(largestAspects(smokeCrop({57, 55, 28}, {95, 78, 67}, 0.3)));
 }
 
 // A random crop of the smoke at iso 0.1 (seed 109, crop 11), sliced along x. A speck alone in its
@@ -2459,7 +2459,7 @@ TEST(Graph, APatchTakesAJunctionsVertexAtItsPoint)
 // of its crossings (Reconstruction::centreLoneContour).
 TEST(Graph, ALoneSpecksRaysGoOutFromItsMiddle)
 {
-    expectNoNeedleAtAnyLevel(largestAspectsAlongX(smokeCrop({25, 94, 51}, {54, 138, 95}, 0.1)));
+    expectNoNeedleAtAnyLevel(largestAspects(smokeCrop({25, 94, 51}, {54, 138, 95}, 0.1)));
 }
 
 // Crossing tree 1 sliced along x: at level 2 a vertex of a plane beside one of the events' slabs,
@@ -2469,7 +2469,7 @@ TEST(Graph, ALoneSpecksRaysGoOutFromItsMiddle)
 // whatever their triangles' shape (Assembly::build, ThinSlabPlanes).
 TEST(Graph, AThinSlabsPlanesKeepNoShortEdgeBelowTheTopLevel)
 {
-    expectNoNeedleAtAnyLevel(largestAspectsAlongX(capsuleUnion(crossingTrees()[1], "capsule tree")));
+    expectNoNeedleAtAnyLevel(largestAspects(capsuleUnion(crossingTrees()[1], "capsule tree")));
 }
 
 // Issue 17's bound, no triangle over aspect 100 at any level, on the crossing and ring trees
@@ -2489,8 +2489,21 @@ TEST(Graph, CapsuleTreesSlicedAlongXHaveNoNeedles)
     trees.insert(trees.end(), ringTrees().begin(), ringTrees().end());
     for (std::size_t k = 0; k < trees.size(); ++k) {
         SCOPED_TRACE("tree " + std::to_string(k));
-        expectNoNeedleAtAnyLevel(largestAspectsAlongX(capsuleUnion(trees[k], "capsule tree")));
+        expectNoNeedleAtAnyLevel(largestAspects(capsuleUnion(trees[k], "capsule tree")));
     }
+}
+
+// The same along y and z: the tests slice the trees along x, and issue 17's bound holds for them
+// along every axis (the largest, 76.6 along y, is ring tree 1's).
+TEST(Graph, CapsuleTreesSlicedAlongYAndZHaveNoNeedles)
+{
+    std::vector<std::vector<Capsule>> trees = crossingTrees();
+    trees.insert(trees.end(), ringTrees().begin(), ringTrees().end());
+    for (const Axis axis : {Axis::Y, Axis::Z})
+        for (std::size_t k = 0; k < trees.size(); ++k) {
+            SCOPED_TRACE("tree " + std::to_string(k) + (axis == Axis::Y ? " along y" : " along z"));
+            expectNoNeedleAtAnyLevel(largestAspects(capsuleUnion(trees[k], "capsule tree"), axis));
+        }
 }
 
 TEST(Graph, BaselineTilersCloseEveryLevelToo)

@@ -543,6 +543,18 @@ TEST(Quality, NoNeedlesOnTheRealData)
     expectNoNeedlesOnRealData("gaffer_smoke_fog.vdb");
 }
 
+// The same along every axis, not only the one the grid's shape picks: a vessel sliced across its
+// length has sections many voxels long whose walls rays meet far apart (the cone's, below).
+TEST(Quality, NoNeedlesOnTheRealVesselsAndSpheresAlongEveryAxis)
+{
+    for (const char* file : {"vmtk_aorta_ls.vdb", "ts_common_carotid_artery_left_ls.vdb", "gaffer_sphere_levelset.vdb",
+                             "gaffer_sphere_density_fog.vdb"})
+        for (const Axis axis : {Axis::X, Axis::Y, Axis::Z}) {
+            SCOPED_TRACE(axis == Axis::X ? "along x" : axis == Axis::Y ? "along y" : "along z");
+            expectNoNeedlesOnRealData(file, true, axis);
+        }
+}
+
 TEST(Quality, NoNeedlesOnTheSmokeAtTheIsovalueItsReadmeGives)
 {
     // Gaffer's smoke at iso 0.1 (data/README's value), along its longest side (y, the default):
