@@ -1043,8 +1043,9 @@ TEST(Quality, ACoarseLevelsWallVerticesStayAtEveryFinerLevel)
     }
 }
 
-// Known gaps of issue 17 (README, triangle quality), strict and registered with ctest as expected
-// failures (CMakeLists.txt): when one passes, ctest says so, and it joins the suite above.
+// Known gaps of issue 17's bound (README, triangle quality) on a crop of a shared volume, strict
+// and registered with ctest as expected failures (CMakeLists.txt): when one passes, ctest says so,
+// and it joins the suite above.
 
 // No needle over 100 on a crop of the smoke (crop survey 138/2: box 27,22,45..69,66,95, iso 0.2,
 // sliced along z): 151.6 at level 2. Six points of a tendril lying in the slicing plane, within
