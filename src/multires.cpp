@@ -126,20 +126,6 @@ void splitEdge(std::vector<Triangle>& triangles, std::uint32_t u, std::uint32_t 
     PIPETILE_ASSERT(false, "a contour edge lies in no triangle of its band");
 }
 
-// The distance from `p` to the closed polygon's nearest point.
-double distanceToPolygon(const glm::dvec2& p, const std::vector<glm::dvec2>& polygon)
-{
-    double nearest2 = std::numeric_limits<double>::infinity();
-    for (std::size_t j = 0; j < polygon.size(); ++j) {
-        const glm::dvec2 a = polygon[j], ab = polygon[(j + 1) % polygon.size()] - a;
-        const double ab2 = glm::dot(ab, ab);
-        const double s = ab2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / ab2, 0.0, 1.0) : 0.0;
-        const glm::dvec2 off = p - (a + s * ab);
-        nearest2 = std::min(nearest2, glm::dot(off, off));
-    }
-    return std::sqrt(nearest2);
-}
-
 // A position's bits: levels nest bit for bit, so vertices are found by them.
 using PositionKey = std::array<std::uint64_t, 3>;
 
@@ -1375,7 +1361,7 @@ std::vector<double> Reconstruction::Assembly::chordPieces(std::size_t i) const
         double h = std::numeric_limits<double>::infinity();
         for (std::size_t n : neighbours) {
             const double t = mPositions[members[n].slice] - mPositions[members[i].slice];
-            const double d = distanceToPolygon(0.5 * (a + b), mLoops[members[n].slice][members[n].loop].view.polygon);
+            const double d = polygonClearance(mLoops[members[n].slice][members[n].loop].view.polygon, 0.5 * (a + b));
             h = std::min(h, std::hypot(t, d));
         }
         if (length > longest * h) pieces[k] = piece * h;
